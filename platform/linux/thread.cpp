@@ -1,0 +1,55 @@
+#include "dynamap/platform/thread.hpp"
+
+#include <cerrno>
+#include <cstring>
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+
+namespace dynamap::platform {
+namespace {
+Status from_errno(int err) noexcept {
+  switch (err) {
+    case 0: return Status::kOk;
+    case EPERM:
+    case EACCES: return Status::kPermissionDenied;
+    case EINVAL: return Status::kInvalidArgument;
+    case ENOSYS: return Status::kUnsupported;
+    default: return Status::kSystemError;
+  }
+}
+}  // namespace
+
+Status set_thread_name(const char* name) noexcept {
+  if (name == nullptr) return Status::kNullData;
+  char buf[16];
+  std::strncpy(buf, name, sizeof(buf) - 1);
+  buf[sizeof(buf) - 1] = '\0';
+  return from_errno(pthread_setname_np(pthread_self(), buf));
+}
+
+Status set_cpu_affinity(int cpu) noexcept {
+  if (cpu < 0 || cpu >= CPU_SETSIZE) return Status::kInvalidArgument;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  return from_errno(pthread_setaffinity_np(pthread_self(), sizeof(set), &set));
+}
+
+Status set_fifo_priority(int priority) noexcept {
+  if (priority < sched_get_priority_min(SCHED_FIFO) ||
+      priority > sched_get_priority_max(SCHED_FIFO)) {
+    return Status::kInvalidArgument;
+  }
+  sched_param p{};
+  p.sched_priority = priority;
+  return from_errno(pthread_setschedparam(pthread_self(), SCHED_FIFO, &p));
+}
+
+Status lock_memory() noexcept {
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) return from_errno(errno);
+  return Status::kOk;
+}
+
+}  // namespace dynamap::platform
