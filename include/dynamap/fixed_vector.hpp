@@ -40,8 +40,8 @@ class FixedVector {
   /// Removes element i by moving the last element into its place (order not kept, O(1)).
   void swap_erase(std::size_t i) noexcept {
     if (i >= size_) return;
-    data_[i] = data_[size_ - 1];
     --size_;
+    if (i != size_) data_[i] = data_[size_];
   }
 
   T& operator[](std::size_t i) noexcept { return data_[i]; }
