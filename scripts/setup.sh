@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Installs the Debian packages dynamap's build, tests, cross build, benchmarks and tools need.
+# Skips what is already installed; says what it does. Safe to run repeatedly.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config   # toolchain
+  libeigen3-dev                                  # core (header-only)
+  googletest libgtest-dev                        # tests; /usr/src/googletest for the cross build
+  libbenchmark-dev                               # host benchmarks
+  g++-aarch64-linux-gnu qemu-user                # Jetson cross build, tests under qemu-aarch64
+  libboost-dev liboctomap-dev                    # benchmark peers (boost::lockfree, OctoMap)
+  libpng-dev libcairo2-dev libyaml-cpp-dev       # tools: PNG depth, pictures, YAML parameters
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} required Debian packages are already installed."
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then SUDO="sudo"; else
+    echo "setup: need root (or sudo) to install: ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+
+echo "setup: installing ${#missing[@]} missing Debian package(s): ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "setup: done."
