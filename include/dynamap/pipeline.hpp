@@ -1,0 +1,148 @@
+// Pipeline: the six stages of dynamap on one thread, in order, with fixed memory and bounded
+// work. init() takes all memory (the object holds it inline, so a Pipeline can be a static
+// global); process() never allocates, throws, locks or does I/O. This is the unit an RTOS-like
+// loop calls once per depth frame.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "dynamap/clean_history.hpp"
+#include "dynamap/constants.hpp"
+#include "dynamap/dynamic_region_cleaner.hpp"
+#include "dynamap/linear_predictor.hpp"
+#include "dynamap/map_refiner.hpp"
+#include "dynamap/markov_predictor.hpp"
+#include "dynamap/occupancy_map.hpp"
+#include "dynamap/pipeline_config.hpp"
+#include "dynamap/prediction.hpp"
+#include "dynamap/stage_timing.hpp"
+#include "dynamap/status.hpp"
+#include "dynamap/tracker.hpp"
+#include "dynamap/types.hpp"
+#include "dynamap/umap_detector.hpp"
+
+namespace dynamap {
+
+/// One input frame: a non-owning depth view, the camera pose T_map_camera and its stamp.
+struct Frame {
+  Stamp stamp = 0;
+  DepthView depth{};
+  Pose T_map_camera{};
+};
+
+/// Cumulative counters since init(); a planner or a health monitor can watch them.
+struct PipelineCounters {
+  std::uint64_t frames_processed = 0;
+  std::uint64_t frames_rejected = 0;     ///< bad input: process() returned an error
+  std::uint64_t rays_dropped = 0;        ///< rays over the occupancy work cap
+  std::uint64_t blocks_evicted = 0;      ///< map blocks evicted because the pool was full
+  std::uint64_t detections_dropped = 0;  ///< detections over the per-frame capacity
+  std::uint64_t tracks_refused = 0;      ///< new tracks refused because the tracker was full
+  std::uint64_t budget_overruns = 0;     ///< frames over the whole-frame budget
+  std::uint64_t stage_overruns = 0;      ///< stage runs over their own budget (all stages)
+  std::uint64_t stride_changes = 0;      ///< adaptive-stride adjustments
+};
+
+/// Work done in the last frame, for worst-case tests (each is capped by the configuration).
+struct FrameWork {
+  std::size_t rays = 0;
+  std::size_t voxel_visits = 0;
+  std::size_t detections = 0;
+  std::size_t refined = 0;
+  std::size_t tracks = 0;
+  std::size_t dynamic_tracks = 0;
+  std::size_t voxels_cleaned = 0;
+  std::size_t predictions = 0;
+};
+
+/// Everything one process() call produces, in fixed-size storage (~100 KB): copy it into a
+/// snapshot for another thread, or read it in place.
+struct FrameOutput {
+  Stamp stamp = 0;
+  Status status = Status::kNotInitialized;
+  std::size_t num_obstacles = 0;
+  std::array<TrackedObstacle, kMaxTracks> obstacles{};
+  /// Predictions for the dynamic obstacles, matched by track_id; [0, num_predictions).
+  std::size_t num_predictions = 0;
+  std::array<PathPrediction, kMaxTracks> predictions{};
+  std::array<PathPrediction, kMaxTracks> linear_predictions{};  ///< baseline, same order
+  std::array<std::uint64_t, kStageCount> stage_ns{};
+  std::uint64_t total_ns = 0;
+  int pixel_stride = 0;  ///< occupancy stride used this frame (adaptive mode may change it)
+  FrameWork work{};
+  PipelineCounters counters{};
+};
+
+/// The real-time pipeline. Not copyable; create once (static, or heap at start-up), init(),
+/// then call process() per frame from one thread.
+class Pipeline {
+ public:
+  using Clock = std::uint64_t (*)();
+
+  Pipeline() noexcept = default;
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  /// Validates `config` (see validate()) and resets every stage. On error nothing changes and
+  /// `error` (when given) names the bad field.
+  [[nodiscard]] Status init(const PipelineConfig& config, ConfigError* error = nullptr) noexcept;
+
+  /// Runs the six stages on `frame` and fills `out`. Bad input (null data, wrong size, NaN pose,
+  /// non-unit quaternion, stamp not after the previous frame's) returns its Status, counts a
+  /// rejected frame and leaves the map and the tracks exactly as they were.
+  [[nodiscard]] Status process(const Frame& frame, FrameOutput& out) noexcept;
+
+  /// Read-only map for planners' queries between frames (same thread, or after a hand-off).
+  const OccupancyMap& map() const noexcept { return map_; }
+  const Tracker& tracker() const noexcept { return tracker_; }
+  const CleanHistory& clean_history() const noexcept { return history_; }
+  const PipelineConfig& config() const noexcept { return config_; }
+  const PipelineCounters& counters() const noexcept { return counters_; }
+  bool initialized() const noexcept { return initialized_; }
+
+  /// Timing statistics per stage and for the whole frame (budgets from the configuration).
+  const StageStats& stage_stats(Stage s) const noexcept {
+    return stage_stats_[static_cast<std::size_t>(s)];
+  }
+  const StageStats& frame_stats() const noexcept { return frame_stats_; }
+  void reset_timing() noexcept;
+  /// Replaces the monotonic clock (tests inject a fake one for deterministic budget logic).
+  void set_clock(Clock clock) noexcept { clock_ = clock != nullptr ? clock : default_clock(); }
+
+  /// Whole footprint in bytes (the object holds all its memory inline).
+  static constexpr std::size_t memory_bytes() noexcept { return sizeof(Pipeline); }
+
+ private:
+  static Clock default_clock() noexcept;
+  Status check_frame(const Frame& frame) const noexcept;
+  void adapt_stride(std::uint64_t occupancy_ns) noexcept;
+  void fill_output(FrameOutput& out) noexcept;
+
+  PipelineConfig config_{};
+  bool initialized_ = false;
+  bool has_stamp_ = false;
+  Stamp last_stamp_ = 0;
+  int pixel_stride_ = 2;
+  Clock clock_ = default_clock();
+
+  OccupancyMap map_{};
+  UMapDetector detector_{};
+  MapRefiner refiner_{};
+  Tracker tracker_{};
+  CleanHistory history_{};
+  DynamicRegionCleaner cleaner_{};
+  MarkovPredictor markov_{};
+  LinearPredictor linear_{};
+
+  DetectionList detections_{};
+  std::array<ObstacleState, kMaxTracks> predictor_input_{};
+  std::array<std::uint32_t, kMaxTracks> predicted_index_{};
+
+  std::array<StageStats, kStageCount> stage_stats_{};
+  StageStats frame_stats_{};
+  PipelineCounters counters_{};
+};
+
+}  // namespace dynamap

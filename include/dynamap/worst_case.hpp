@@ -1,0 +1,25 @@
+// Deliberately worst-case depth frames: inputs that drive each stage to its configured work cap,
+// for tests (work counters hit their caps and stop there) and for worst-case timing benchmarks.
+// They write into a caller-provided buffer; nothing is allocated.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "dynamap/types.hpp"
+
+namespace dynamap {
+
+enum class WorstCase : std::uint8_t {
+  kMaxRange,   ///< every pixel valid just inside the maximum range: most rays, longest rays
+  kClutter,    ///< `obstacles` narrow bars at alternating depths over a max-range background:
+               ///< most detections and tracks, plus long rays everywhere else
+};
+
+/// Fills `pixels` (cam.width x cam.height, tightly packed) with the worst case `kind` and
+/// returns a view of it. `max_depth_m` is the occupancy map's max range; `obstacles` is used by
+/// kClutter (capped so every bar stays at least 8 pixels wide).
+DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, float max_depth_m,
+                                std::size_t obstacles, std::uint16_t* pixels) noexcept;
+
+}  // namespace dynamap

@@ -1,0 +1,221 @@
+#include "dynamap/pipeline.hpp"
+
+#include <cmath>
+
+#include "dynamap/platform/clock.hpp"
+
+namespace dynamap {
+namespace {
+
+std::uint64_t platform_clock() { return platform::monotonic_ns(); }
+
+constexpr std::size_t idx(Stage s) noexcept { return static_cast<std::size_t>(s); }
+
+// A dynamic track's input to the predictors: centre, top-view velocity and the footprint.
+ObstacleState predictor_input(const TrackedObstacle& o) noexcept {
+  ObstacleState s;
+  s.track_id = o.id;
+  s.position = o.box.center();
+  s.velocity = o.velocity.head<2>();
+  const Eigen::Vector3f size = o.box.size();
+  s.footprint_radius = 0.5f * std::fmax(size.x(), size.y());
+  s.height = size.z();
+  return s;
+}
+
+}  // namespace
+
+Pipeline::Clock Pipeline::default_clock() noexcept { return &platform_clock; }
+
+Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept {
+  const ConfigError e = validate(config);
+  if (error != nullptr) *error = e;
+  if (!e.ok()) return e.status;
+
+  // validate() has checked every sub-config, so these only fail on a bug; keep the first error.
+  Status s = map_.init(config.map);
+  if (ok(s)) s = detector_.init(config.detector);
+  if (ok(s)) s = refiner_.init(config.refiner);
+  if (ok(s)) s = tracker_.init(config.tracker);
+  if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
+  if (ok(s)) s = cleaner_.init(config.cleaner);
+  if (ok(s)) s = markov_.init(config.predictor);
+  if (ok(s)) {
+    LinearPredictorConfig lc;
+    lc.paths = config.predictor.paths;
+    lc.clearance = config.predictor.clearance;
+    s = linear_.init(lc);
+  }
+  if (!ok(s)) {
+    initialized_ = false;
+    if (error != nullptr) *error = ConfigError{s, "pipeline", "a stage rejected its configuration"};
+    return s;
+  }
+
+  config_ = config;
+  pixel_stride_ = config.map.pixel_stride;
+  has_stamp_ = false;
+  last_stamp_ = 0;
+  counters_ = PipelineCounters{};
+  for (std::size_t i = 0; i < kStageCount; ++i) {
+    stage_stats_[i].set_budget_ns(config.budgets.stage_ns[i]);
+  }
+  frame_stats_.set_budget_ns(config.budgets.frame_ns);
+  reset_timing();
+  initialized_ = true;
+  return Status::kOk;
+}
+
+void Pipeline::reset_timing() noexcept {
+  for (auto& st : stage_stats_) st.reset();
+  frame_stats_.reset();
+}
+
+Status Pipeline::check_frame(const Frame& frame) const noexcept {
+  if (!initialized_) return Status::kNotInitialized;
+  Status s = validate_depth(frame.depth, config_.camera);
+  if (!ok(s)) return s;
+  s = validate_pose(frame.T_map_camera);
+  if (!ok(s)) return s;
+  if (has_stamp_ && frame.stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+  return Status::kOk;
+}
+
+Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
+  // Every check happens before any stage runs, so a rejected frame changes nothing.
+  const Status bad = check_frame(frame);
+  if (!ok(bad)) {
+    if (initialized_) ++counters_.frames_rejected;
+    out.status = bad;
+    out.stamp = frame.stamp;
+    out.counters = counters_;
+    return bad;
+  }
+  const std::uint64_t t_start = clock_();
+  std::uint64_t t_prev = t_start;
+  std::array<std::uint64_t, kStageCount> stage_ns{};
+  auto lap = [&](Stage s) {
+    const std::uint64_t now = clock_();
+    const std::uint64_t dt = now > t_prev ? now - t_prev : 0;
+    stage_ns[idx(s)] = dt;
+    StageStats& st = stage_stats_[idx(s)];
+    const std::uint64_t overruns_before = st.overruns();
+    st.record(dt);
+    counters_.stage_overruns += st.overruns() - overruns_before;
+    t_prev = now;
+  };
+  FrameWork work;
+
+  // 1. Occupancy update. Inputs were validated above, so the map cannot refuse the frame.
+  (void)map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp);
+  {
+    const IntegrationStats& ms = map_.last_stats();
+    work.rays = ms.rays;
+    work.voxel_visits = ms.voxel_visits;
+    counters_.rays_dropped += ms.rays_dropped;
+    counters_.blocks_evicted += ms.blocks_evicted;
+  }
+  lap(Stage::kOccupancy);
+
+  // 2. U-map detection.
+  if (!ok(detector_.detect(frame.depth, config_.camera, frame.T_map_camera, detections_))) {
+    detections_.clear();
+  }
+  counters_.detections_dropped += detector_.last_stats().detections_dropped;
+  work.detections = detections_.size();
+  lap(Stage::kDetection);
+
+  // 3. Map refinement against the occupancy map and the clean history.
+  const VoxelLookup cleaned{&history_, &CleanHistory::contains_thunk};
+  for (Detection& d : detections_) {
+    if (ok(refiner_.refine(d, map_, cleaned)) && d.refined) ++work.refined;
+  }
+  lap(Stage::kRefinement);
+
+  // 4. Tracking and static/dynamic identification.
+  const std::uint64_t refused_before = tracker_.refused_tracks();
+  (void)tracker_.update(detections_.data(), detections_.size(), frame.T_map_camera, frame.stamp);
+  counters_.tracks_refused += tracker_.refused_tracks() - refused_before;
+  work.tracks = tracker_.size();
+  lap(Stage::kTracking);
+
+  // 5. Dynamic-region cleaning.
+  (void)cleaner_.clean(tracker_, map_, history_, frame.stamp);
+  work.voxels_cleaned = cleaner_.last_stats().voxels_freed;
+  work.dynamic_tracks = cleaner_.last_stats().dynamic_tracks;
+  lap(Stage::kCleaning);
+
+  // 6. Prediction for dynamic tracks.
+  std::size_t n_dyn = 0;
+  for (std::size_t i = 0; i < tracker_.size(); ++i) {
+    const TrackedObstacle& o = tracker_.obstacle(i);
+    if (!o.dynamic) continue;
+    predictor_input_[n_dyn++] = predictor_input(o);
+  }
+  const OccupancyQuery query = OccupancyQuery::of(map_);
+  if (!ok(markov_.predict(predictor_input_.data(), n_dyn, query, out.predictions.data()))) {
+    n_dyn = 0;
+  }
+  if (config_.run_linear_baseline && n_dyn > 0) {
+    (void)linear_.predict(predictor_input_.data(), n_dyn, query, out.linear_predictions.data());
+  }
+  out.num_predictions = n_dyn;
+  work.predictions = n_dyn;
+  lap(Stage::kPrediction);
+
+  const std::uint64_t total = t_prev - t_start;
+  const std::uint64_t frame_overruns_before = frame_stats_.overruns();
+  frame_stats_.record(total);
+  counters_.budget_overruns += frame_stats_.overruns() - frame_overruns_before;
+  if (config_.budgets.adaptive_stride) adapt_stride(stage_ns[idx(Stage::kOccupancy)]);
+
+  has_stamp_ = true;
+  last_stamp_ = frame.stamp;
+  ++counters_.frames_processed;
+
+  out.stamp = frame.stamp;
+  out.status = Status::kOk;
+  out.stage_ns = stage_ns;
+  out.total_ns = total;
+  out.work = work;
+  fill_output(out);
+  return Status::kOk;
+}
+
+void Pipeline::fill_output(FrameOutput& out) noexcept {
+  out.num_obstacles = tracker_.size();
+  for (std::size_t i = 0; i < out.num_obstacles; ++i) out.obstacles[i] = tracker_.obstacle(i);
+  out.pixel_stride = pixel_stride_;
+  out.counters = counters_;
+}
+
+void Pipeline::adapt_stride(std::uint64_t occupancy_ns) noexcept {
+  const std::uint64_t budget = config_.budgets.stage_ns[idx(Stage::kOccupancy)];
+  if (budget == 0) return;
+  int stride = pixel_stride_;
+  if (occupancy_ns > budget && stride < config_.budgets.max_pixel_stride) {
+    ++stride;  // coarser: roughly (s/(s+1))^2 of the rays
+  } else if (stride > config_.map.pixel_stride &&
+             static_cast<double>(occupancy_ns) <
+                 config_.budgets.restore_fraction * static_cast<double>(budget)) {
+    --stride;
+  }
+  if (stride != pixel_stride_ && ok(map_.set_pixel_stride(stride))) {
+    pixel_stride_ = stride;
+    ++counters_.stride_changes;
+  }
+}
+
+const char* to_string(Stage s) noexcept {
+  switch (s) {
+    case Stage::kOccupancy: return "occupancy";
+    case Stage::kDetection: return "detection";
+    case Stage::kRefinement: return "refinement";
+    case Stage::kTracking: return "tracking";
+    case Stage::kCleaning: return "cleaning";
+    case Stage::kPrediction: return "prediction";
+  }
+  return "unknown";
+}
+
+}  // namespace dynamap

@@ -1,0 +1,353 @@
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "alloc_guard.hpp"
+#include "dynamap/pipeline.hpp"
+#include "dynamap/worst_case.hpp"
+#include "world_scene.hpp"
+
+namespace dynamap {
+namespace {
+
+constexpr Stamp kFrameNs = 33'333'333;  // 30 Hz
+
+// A 320x240 camera keeps the tests quick (also under qemu); the pipeline does not care.
+PipelineConfig small_camera_config() {
+  PipelineConfig c;
+  c.camera.width = 320;
+  c.camera.height = 240;
+  c.camera.fx = c.camera.fy = 300.f;
+  c.camera.cx = 160.f;
+  c.camera.cy = 120.f;
+  return c;
+}
+
+// One person walking across the view at 1 m/s, 3 m ahead, in front of a wall at 4.5 m, plus a
+// static box (a crate) that must stay static.
+struct WalkerScenario {
+  test::WorldScene scene;
+  Pose camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.2f));
+  std::vector<std::uint16_t> pixels;
+  const Box3 crate = Box3::from_center_size(Eigen::Vector3f(2.5f, 1.2f, 0.4f),
+                                            Eigen::Vector3f(0.6f, 0.6f, 0.8f));
+  const Box3 wall = Box3::from_center_size(Eigen::Vector3f(4.6f, 0.f, 1.5f),
+                                           Eigen::Vector3f(0.2f, 10.f, 3.f));
+
+  Eigen::Vector2f walker_xy(int frame) const {
+    return Eigen::Vector2f(3.0f, -1.2f + 1.0f * static_cast<float>(frame) * 1e-9f *
+                                           static_cast<float>(kFrameNs));
+  }
+  Frame frame(int i, const CameraIntrinsics& cam) {
+    scene.boxes = {wall, crate};
+    const Eigen::Vector2f w = walker_xy(i);
+    scene.boxes.push_back(test::person_at(w.x(), w.y()));
+    Frame f;
+    f.stamp = static_cast<Stamp>(i + 1) * kFrameNs;
+    f.T_map_camera = camera;
+    f.depth = test::render(scene, cam, camera, pixels);
+    return f;
+  }
+};
+
+TEST(PipelineConfig, DefaultsAreValidAndFitTheMemoryBudget) {
+  EXPECT_TRUE(validate(PipelineConfig{}).ok());
+  EXPECT_LE(Pipeline::memory_bytes(), 32u * 1024u * 1024u) << "default footprint over 32 MiB";
+}
+
+TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
+  PipelineConfig c;
+  c.map.resolution = 0.f;
+  ConfigError e = validate(c);
+  EXPECT_EQ(e.status, Status::kInvalidArgument);
+  EXPECT_STREQ(e.field, "map.resolution");
+  EXPECT_STRNE(e.reason, "");
+
+  c = PipelineConfig{};
+  c.camera.fx = std::nanf("");
+  e = validate(c);
+  EXPECT_STREQ(e.field, "camera.fx");
+
+  c = PipelineConfig{};
+  c.camera.width = kMaxImageWidth + 1;
+  EXPECT_STREQ(validate(c).field, "camera.width");
+
+  c = PipelineConfig{};
+  c.tracker.overlap_threshold = 2.f;
+  EXPECT_STREQ(validate(c).field, "tracker.overlap_threshold");
+
+  c = PipelineConfig{};
+  c.budgets.max_pixel_stride = 0;
+  EXPECT_STREQ(validate(c).field, "budgets.max_pixel_stride");
+}
+
+TEST(Pipeline, InitRejectsBadConfigAndProcessNeedsInit) {
+  auto p = std::make_unique<Pipeline>();
+  FrameOutput out;
+  std::vector<std::uint16_t> px(320 * 240, 1000);
+  Frame f;
+  f.stamp = 1;
+  f.depth = DepthView{px.data(), 320, 240, 640};
+  EXPECT_EQ(p->process(f, out), Status::kNotInitialized);
+  PipelineConfig c = small_camera_config();
+  c.detector.bins = -1;
+  ConfigError e;
+  EXPECT_EQ(p->init(c, &e), Status::kInvalidArgument);
+  EXPECT_STREQ(e.field, "detector.bins");
+  EXPECT_FALSE(p->initialized());
+}
+
+TEST(Pipeline, TracksAWalkerAsDynamicAndACrateAsStatic) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  const PipelineConfig cfg = small_camera_config();
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  WalkerScenario s;
+  int first_dynamic_frame = -1;
+  for (int i = 0; i < 75; ++i) {
+    ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk) << "frame " << i;
+    for (std::size_t k = 0; k < out->num_obstacles; ++k) {
+      const TrackedObstacle& o = out->obstacles[k];
+      const Eigen::Vector2f c = o.box.center().head<2>();
+      // The crate never moves: it must never be labelled dynamic.
+      EXPECT_FALSE(o.dynamic && (c - s.crate.center().head<2>()).norm() < 0.5f)
+          << "crate labelled dynamic at frame " << i;
+      if (o.dynamic && first_dynamic_frame < 0 && (c - s.walker_xy(i)).norm() < 0.5f) {
+        first_dynamic_frame = i;
+      }
+    }
+  }
+  ASSERT_GE(first_dynamic_frame, 0) << "walker never labelled dynamic";
+  EXPECT_LE(first_dynamic_frame, 45) << "walker labelled dynamic only after 1.5 s";
+
+  // At the end the walker is a dynamic track near its true position with the right velocity,
+  // and it has a prediction.
+  const Eigen::Vector2f truth = s.walker_xy(74);
+  const TrackedObstacle* walker = nullptr;
+  for (std::size_t k = 0; k < out->num_obstacles; ++k) {
+    if (out->obstacles[k].dynamic) walker = &out->obstacles[k];
+  }
+  ASSERT_NE(walker, nullptr);
+  EXPECT_LT((walker->box.center().head<2>() - truth).norm(), 0.15f);
+  EXPECT_LT((walker->velocity.head<2>() - Eigen::Vector2f(0.f, 1.f)).norm(), 0.25f);
+  ASSERT_EQ(out->num_predictions, 1u);
+  EXPECT_EQ(out->predictions[0].track_id, walker->id);
+  EXPECT_GT(out->predictions[0].num_samples, 1u);
+
+  // Its trail is cleaned: where it stood at the start is no longer occupied in the map...
+  const Eigen::Vector2f start = s.walker_xy(0);
+  EXPECT_FALSE(p->map().is_occupied(Eigen::Vector3f(start.x(), start.y(), 1.0f)));
+  // ...while the static crate and wall are.
+  EXPECT_TRUE(p->map().first_occupied_on_segment(Eigen::Vector3f(2.0f, 1.2f, 0.4f),
+                                                 Eigen::Vector3f(3.0f, 1.2f, 0.4f), nullptr));
+  EXPECT_TRUE(p->map().first_occupied_on_segment(Eigen::Vector3f(4.0f, -2.f, 1.2f),
+                                                 Eigen::Vector3f(5.0f, -2.f, 1.2f), nullptr));
+}
+
+TEST(Pipeline, ZeroHeapAllocationsAcross100Frames) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  const PipelineConfig cfg = small_camera_config();
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  WalkerScenario s;
+  std::vector<Frame> frames;
+  std::vector<std::vector<std::uint16_t>> images(100);
+  for (int i = 0; i < 100; ++i) {  // render everything first: the renderer allocates
+    Frame f = s.frame(i, cfg.camera);
+    images[static_cast<std::size_t>(i)] = s.pixels;
+    f.depth.data = images[static_cast<std::size_t>(i)].data();
+    frames.push_back(f);
+  }
+  std::size_t allocations = 0;
+  {
+    test::AllocationGuard guard;
+    for (const Frame& f : frames) {
+      if (!ok(p->process(f, *out))) break;
+    }
+    allocations = guard.allocations();
+  }
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(p->counters().frames_processed, 100u);
+}
+
+// Snapshot of everything a bad frame must not change.
+struct StateSnapshot {
+  std::uint64_t map_checksum;
+  std::size_t tracks;
+  std::vector<std::uint32_t> ids;
+  std::vector<float> centres;
+  std::uint64_t processed;
+  static StateSnapshot of(const Pipeline& p) {
+    StateSnapshot s{p.map().checksum(), p.tracker().size(), {}, {}, p.counters().frames_processed};
+    for (std::size_t i = 0; i < p.tracker().size(); ++i) {
+      s.ids.push_back(p.tracker().obstacle(i).id);
+      for (int a = 0; a < 3; ++a) s.centres.push_back(p.tracker().obstacle(i).box.center()[a]);
+    }
+    return s;
+  }
+  bool operator==(const StateSnapshot& o) const {
+    return map_checksum == o.map_checksum && tracks == o.tracks && ids == o.ids &&
+           centres == o.centres && processed == o.processed;
+  }
+};
+
+TEST(Pipeline, EveryBadInputGetsItsStatusAndChangesNothing) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  const PipelineConfig cfg = small_camera_config();
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  WalkerScenario s;
+  for (int i = 0; i < 20; ++i) ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
+  const StateSnapshot before = StateSnapshot::of(*p);
+  ASSERT_GT(before.tracks, 0u);
+  const Frame good = s.frame(20, cfg.camera);
+
+  struct Case {
+    const char* name;
+    Frame frame;
+    Status expected;
+  };
+  std::vector<Case> cases;
+  Frame f = good;
+  f.depth.width = 640;
+  cases.push_back({"wrong size", f, Status::kWrongSize});
+  f = good;
+  f.depth.stride_bytes = 10;
+  cases.push_back({"bad stride", f, Status::kWrongSize});
+  f = good;
+  f.depth.data = nullptr;
+  cases.push_back({"null data", f, Status::kNullData});
+  f = good;
+  f.T_map_camera.translation.y() = std::nanf("");
+  cases.push_back({"NaN pose", f, Status::kNonFinite});
+  f = good;
+  f.T_map_camera.rotation.coeffs() *= 1.5f;
+  cases.push_back({"non-unit quaternion", f, Status::kNonUnitQuaternion});
+  f = good;
+  f.stamp = 5 * kFrameNs;
+  cases.push_back({"time going backwards", f, Status::kTimeNotIncreasing});
+  f = good;
+  f.stamp = 20 * kFrameNs;  // the previous frame's stamp
+  cases.push_back({"duplicated timestamp", f, Status::kTimeNotIncreasing});
+
+  std::uint64_t rejected = 0;
+  for (const Case& c : cases) {
+    EXPECT_EQ(p->process(c.frame, *out), c.expected) << c.name;
+    EXPECT_EQ(out->status, c.expected) << c.name;
+    EXPECT_TRUE(StateSnapshot::of(*p) == before) << c.name << " changed the state";
+    EXPECT_EQ(p->counters().frames_rejected, ++rejected) << c.name;
+  }
+  EXPECT_EQ(p->process(good, *out), Status::kOk);  // and the good frame still goes through
+}
+
+TEST(Pipeline, SameSequenceGivesBitIdenticalOutputs) {
+  const PipelineConfig cfg = small_camera_config();
+  auto run = [&](std::vector<float>& trace) {
+    auto p = std::make_unique<Pipeline>();
+    auto out = std::make_unique<FrameOutput>();
+    EXPECT_EQ(p->init(cfg), Status::kOk);
+    WalkerScenario s;
+    for (int i = 0; i < 60; ++i) {
+      EXPECT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
+      for (std::size_t k = 0; k < out->num_obstacles; ++k) {
+        const TrackedObstacle& o = out->obstacles[k];
+        trace.insert(trace.end(), {static_cast<float>(o.id), o.box.min.x(), o.box.min.y(),
+                                   o.box.max.z(), o.velocity.x(), o.velocity.y(),
+                                   o.dynamic ? 1.f : 0.f});
+      }
+      for (std::size_t k = 0; k < out->num_predictions; ++k) {
+        const PathPrediction& pr = out->predictions[k];
+        trace.push_back(static_cast<float>(pr.chosen));
+        trace.insert(trace.end(), pr.probability.begin(), pr.probability.end());
+      }
+    }
+    return p->map().checksum();
+  };
+  std::vector<float> a, b;
+  const std::uint64_t ca = run(a);
+  const std::uint64_t cb = run(b);
+  EXPECT_EQ(ca, cb);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
+}
+
+// A fake clock that advances a fixed step at every read makes the budget logic deterministic.
+std::uint64_t g_fake_now = 0;
+std::uint64_t g_fake_step = 0;
+std::uint64_t fake_clock() { return g_fake_now += g_fake_step; }
+
+TEST(PipelineBudget, OverrunsAreCountedPerStageAndPerFrame) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  PipelineConfig cfg = small_camera_config();
+  cfg.budgets.stage_ns[static_cast<std::size_t>(Stage::kOccupancy)] = 500;  // < the 1000 step
+  cfg.budgets.stage_ns[static_cast<std::size_t>(Stage::kTracking)] = 5000;  // > the step
+  cfg.budgets.frame_ns = 5000;  // 6 stages x 1000 ns = 6000 > 5000
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  g_fake_now = 0;
+  g_fake_step = 1000;
+  p->set_clock(&fake_clock);
+  WalkerScenario s;
+  for (int i = 0; i < 10; ++i) ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
+  EXPECT_EQ(p->stage_stats(Stage::kOccupancy).overruns(), 10u);
+  EXPECT_EQ(p->stage_stats(Stage::kTracking).overruns(), 0u);
+  EXPECT_EQ(p->stage_stats(Stage::kOccupancy).p50_ns(), 1000u);
+  EXPECT_EQ(out->total_ns, 6000u);
+  EXPECT_EQ(p->counters().budget_overruns, 10u);
+  EXPECT_EQ(p->counters().stage_overruns, 10u);
+}
+
+TEST(PipelineBudget, AdaptiveStrideCoarsensUnderLoadAndRestoresWithSlack) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  PipelineConfig cfg = small_camera_config();
+  cfg.budgets.adaptive_stride = true;
+  cfg.budgets.max_pixel_stride = 5;
+  cfg.budgets.stage_ns[static_cast<std::size_t>(Stage::kOccupancy)] = 2000;
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  p->set_clock(&fake_clock);
+  WalkerScenario s;
+  int i = 0;
+  g_fake_step = 3000;  // every stage "takes" 3 us: occupancy over its 2 us budget
+  for (; i < 10; ++i) ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
+  EXPECT_EQ(out->pixel_stride, 5) << "stride must coarsen up to the cap and stop there";
+  EXPECT_EQ(p->map().config().pixel_stride, 5);
+  g_fake_step = 500;  // now well under half the budget: restore step by step
+  for (; i < 20; ++i) ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
+  EXPECT_EQ(out->pixel_stride, cfg.map.pixel_stride);
+  EXPECT_EQ(p->counters().stride_changes, 6u);  // 2->5 and back
+}
+
+TEST(PipelineWorstCase, WorkCountersStopAtTheirCaps) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  PipelineConfig cfg = small_camera_config();
+  cfg.map.max_rays_per_frame = 5000;
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height));
+  Frame f;
+  f.T_map_camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.2f));
+  f.depth = make_worst_case_depth(WorstCase::kMaxRange, cfg.camera, cfg.map.max_depth, 0, px.data());
+  f.stamp = kFrameNs;
+  ASSERT_EQ(p->process(f, *out), Status::kOk);
+  EXPECT_EQ(out->work.rays, 5000u);
+  EXPECT_GT(out->counters.rays_dropped, 0u);
+  EXPECT_LE(out->work.voxel_visits, cfg.map.max_voxel_visits_per_frame);
+
+  // Clutter: the detector fills its capacity, and a full tracker refuses (and counts) the rest.
+  f.depth = make_worst_case_depth(WorstCase::kClutter, cfg.camera, cfg.map.max_depth,
+                                  kMaxDetections, px.data());
+  for (int i = 2; i < 8; ++i) {
+    f.stamp = static_cast<Stamp>(i) * kFrameNs;
+    ASSERT_EQ(p->process(f, *out), Status::kOk);
+  }
+  EXPECT_GE(out->work.detections, 16u);
+  EXPECT_LE(out->work.detections, kMaxDetections);
+  EXPECT_LE(out->num_obstacles, kMaxTracks);
+}
+
+}  // namespace
+}  // namespace dynamap

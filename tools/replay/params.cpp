@@ -1,0 +1,143 @@
+#include "params.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <sstream>
+#include <type_traits>
+
+#include <yaml-cpp/yaml.h>
+
+namespace dynamap::tools {
+namespace {
+
+// One settable field: its dotted key, a parser from a YAML scalar, and a printer.
+struct Param {
+  std::string key;
+  std::function<bool(const YAML::Node&, PipelineConfig&)> set;
+  std::function<std::string(const PipelineConfig&)> get;
+};
+
+template <typename Access>
+Param make_param(const char* key, Access access) {
+  using T = std::remove_pointer_t<decltype(access(std::declval<PipelineConfig&>()))>;
+  Param p;
+  p.key = key;
+  p.set = [access](const YAML::Node& n, PipelineConfig& c) {
+    T v{};
+    if constexpr (std::is_same_v<T, bool>) {
+      if (!YAML::convert<bool>::decode(n, v)) return false;
+    } else if constexpr (std::is_unsigned_v<T>) {
+      // yaml-cpp would wrap a negative number into a huge unsigned one; refuse it instead.
+      long long s = 0;
+      if (!YAML::convert<long long>::decode(n, s) || s < 0) return false;
+      v = static_cast<T>(s);
+    } else {
+      if (!YAML::convert<T>::decode(n, v)) return false;
+    }
+    *access(c) = v;
+    return true;
+  };
+  p.get = [access](const PipelineConfig& c) {
+    std::ostringstream os;
+    os << +*access(const_cast<PipelineConfig&>(c));
+    return os.str();
+  };
+  return p;
+}
+
+#define DYNAMAP_PARAM(path) make_param(#path, [](PipelineConfig& c) { return &c.path; })
+
+const std::vector<Param>& params() {
+  static const std::vector<Param> table = {
+      DYNAMAP_PARAM(map.resolution), DYNAMAP_PARAM(map.prob_hit), DYNAMAP_PARAM(map.prob_miss),
+      DYNAMAP_PARAM(map.prob_min), DYNAMAP_PARAM(map.prob_max), DYNAMAP_PARAM(map.prob_occupied),
+      DYNAMAP_PARAM(map.min_depth), DYNAMAP_PARAM(map.max_depth), DYNAMAP_PARAM(map.pixel_margin),
+      DYNAMAP_PARAM(map.pixel_stride), DYNAMAP_PARAM(map.max_blocks),
+      DYNAMAP_PARAM(map.max_rays_per_frame), DYNAMAP_PARAM(map.max_voxel_visits_per_frame),
+      DYNAMAP_PARAM(detector.bins), DYNAMAP_PARAM(detector.d_min), DYNAMAP_PARAM(detector.d_max),
+      DYNAMAP_PARAM(detector.smoothing_radius), DYNAMAP_PARAM(detector.count_threshold),
+      DYNAMAP_PARAM(detector.min_point_height), DYNAMAP_PARAM(detector.min_segment_length),
+      DYNAMAP_PARAM(detector.min_area), DYNAMAP_PARAM(detector.band_factor),
+      DYNAMAP_PARAM(detector.max_candidates), DYNAMAP_PARAM(detector.max_detections),
+      DYNAMAP_PARAM(tracker.overlap_threshold), DYNAMAP_PARAM(tracker.centre_gate),
+      DYNAMAP_PARAM(tracker.max_missed_frames), DYNAMAP_PARAM(tracker.history_length),
+      DYNAMAP_PARAM(tracker.box_history_length), DYNAMAP_PARAM(tracker.size_fix_frames),
+      DYNAMAP_PARAM(tracker.image_margin), DYNAMAP_PARAM(tracker.correct_near_surface_bias),
+      DYNAMAP_PARAM(cleaner.frames), DYNAMAP_PARAM(cleaner.inflation),
+      DYNAMAP_PARAM(cleaner.z_margin), DYNAMAP_PARAM(cleaner.max_voxels_per_frame),
+      DYNAMAP_PARAM(predictor.paths.num_paths), DYNAMAP_PARAM(predictor.paths.turn_curvature),
+      DYNAMAP_PARAM(predictor.paths.max_heading_change),
+      DYNAMAP_PARAM(predictor.paths.horizon_distance),
+      DYNAMAP_PARAM(predictor.paths.sample_interval), DYNAMAP_PARAM(predictor.sigma_init),
+      DYNAMAP_PARAM(predictor.sigma_trans), DYNAMAP_PARAM(predictor.beta),
+      DYNAMAP_PARAM(run_linear_baseline), DYNAMAP_PARAM(ground_height),
+      DYNAMAP_PARAM(clean_history_max_age_ns), DYNAMAP_PARAM(budgets.frame_ns),
+      DYNAMAP_PARAM(budgets.adaptive_stride), DYNAMAP_PARAM(budgets.max_pixel_stride),
+  };
+  return table;
+}
+
+#undef DYNAMAP_PARAM
+
+std::string where(const std::string& path, const YAML::Node& n) {
+  std::ostringstream os;
+  os << path << ":" << (n.Mark().line + 1);
+  return os.str();
+}
+
+// Walks nested maps, joining keys with dots, and sets each scalar leaf.
+std::string apply_node(const std::string& path, const YAML::Node& node, const std::string& prefix,
+                       PipelineConfig& config) {
+  for (const auto& kv : node) {
+    const std::string key = prefix + kv.first.as<std::string>();
+    const YAML::Node& value = kv.second;
+    if (value.IsMap()) {
+      std::string e = apply_node(path, value, key + ".", config);
+      if (!e.empty()) return e;
+      continue;
+    }
+    const Param* param = nullptr;
+    for (const Param& p : params()) {
+      if (p.key == key) param = &p;
+    }
+    if (param == nullptr) {
+      return where(path, kv.first) + ": unknown parameter '" + key +
+             "' (dynamap-replay --help-params lists them all)";
+    }
+    if (!value.IsScalar() || !param->set(value, config)) {
+      return where(path, value) + ": bad value for '" + key + "': '" +
+             (value.IsScalar() ? value.Scalar() : std::string("<not a scalar>")) + "'";
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string apply_params_file(const std::string& path, PipelineConfig& config) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    return path + ": cannot open the parameter file";
+  } catch (const YAML::Exception& e) {
+    return path + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg;
+  }
+  if (root.IsNull()) return "";  // an empty file changes nothing
+  if (!root.IsMap()) return path + ": the parameter file must be a map of keys to values";
+  PipelineConfig candidate = config;  // nothing changes unless the whole file is good
+  std::string e = apply_node(path, root, "", candidate);
+  if (!e.empty()) return e;
+  const ConfigError ce = validate(candidate);
+  if (!ce.ok()) return path + ": invalid value for '" + ce.field + "': " + ce.reason;
+  config = candidate;
+  return "";
+}
+
+std::vector<std::string> describe_params(const PipelineConfig& config) {
+  std::vector<std::string> out;
+  for (const Param& p : params()) out.push_back(p.key + ": " + p.get(config));
+  return out;
+}
+
+}  // namespace dynamap::tools
