@@ -232,10 +232,10 @@ class OccupancyMap {
   std::array<Eigen::Vector3f, kMaxImageWidth> column_dir_{};  ///< R * ((u-cx)/fx, 0, 0)
   std::array<EvictionCandidate, kMaxMapBlocks> eviction_{};
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
-  Eigen::Vector3f row_dir_ = Eigen::Vector3f::Zero();
+  Eigen::Vector3f down_dir_ = Eigen::Vector3f::Zero();     ///< R.col(1)
+  Eigen::Vector3f forward_dir_ = Eigen::Vector3f::Zero();  ///< R.col(2)
   Eigen::Vector3f box_min_ = Eigen::Vector3f::Zero(), box_max_ = Eigen::Vector3f::Zero();
   const CameraIntrinsics* cam_ = nullptr;
-  Eigen::Quaternionf rotation_ = Eigen::Quaternionf::Identity();
   std::size_t visits_left_ = 0;
   std::size_t evictions_this_frame_ = 0;
   IntegrationStats stats_{};
