@@ -35,7 +35,8 @@ TEST(ContinuityFilter, StraightMotionScoresOneAndReversalScoresLow) {
 }
 
 TEST(ContinuityFilter, NeedsTwoDisplacements) {
-  std::array<Eigen::Vector2f, 12> p{};
+  std::array<Eigen::Vector2f, 12> p;
+  for (auto& q : p) q.setZero();
   float c = 5.f;
   EXPECT_FALSE(continuity_score(p.data(), 11, 10, &c));
   EXPECT_FLOAT_EQ(c, 5.f);

@@ -23,8 +23,9 @@ struct DynamicRegionCleanerConfig {
   float inflation = 1.15f;  ///< horizontal extent factor about the box centre
   float z_margin = 0.2f;    ///< metres added below and above
   float min_z = -1000.f;    ///< never clear below this height (e.g. ground + 0.2 m)
-  /// Every frame each dynamic track clears its newest box plus this many older ones, taken in
-  /// turn, so all f boxes are revisited every ceil((f - 1) / n) frames.
+  /// Every frame each dynamic track clears its newest box plus about this many older ones, taken
+  /// in turn, so every box of the last f frames is revisited at least every ceil((f - 1) / n)
+  /// frames (0: newest box only).
   std::size_t older_boxes_per_frame = 3;
   std::size_t max_voxels_per_frame = 100000;  ///< cap on voxels examined per frame (all tracks)
   std::size_t max_purge_per_frame = 4096;     ///< cap on expired history entries purged per frame
@@ -99,14 +100,17 @@ class DynamicRegionCleaner {
       if (n_boxes > config_.frames) n_boxes = config_.frames;
       if (n_boxes == 0) continue;
       (void)clear_one(tracker.past_box(i, 0));  // where it is now
-      const std::size_t older = n_boxes - 1;
-      if (older == 0) continue;
-      const std::size_t per_frame =
-          config_.older_boxes_per_frame < older ? config_.older_boxes_per_frame : older;
-      const std::size_t start = (frame_ * per_frame) % older;
-      for (std::size_t j = 0; j < per_frame; ++j) {
-        (void)clear_one(tracker.past_box(i, 1 + (start + j) % older));
-      }
+      if (config_.older_boxes_per_frame == 0) continue;
+      // Older boxes in turn: box number b (counted since the track started) is revisited on the
+      // frames where b = frame (mod period), i.e. at least once every `period` frames.
+      const std::size_t period =
+          (config_.frames - 1 + config_.older_boxes_per_frame - 1) / config_.older_boxes_per_frame;
+      if (period == 0) continue;
+      const std::size_t newest = tracker.obstacle(i).hits - 1;  // one box per matched frame
+      const std::size_t phase = frame_ % period;
+      std::size_t age = (newest + period - phase) % period;  // newest - age = phase (mod period)
+      if (age == 0) age = period;
+      for (; age < n_boxes; age += period) (void)clear_one(tracker.past_box(i, age));
     }
     ++frame_;
     return Status::kOk;
