@@ -1,0 +1,154 @@
+// DynamicRegionCleaner: frees the occupancy-map voxels under dynamic tracks' recent boxes (the
+// trail a walker leaves in the map) and remembers them in the clean history, which the map
+// refiner counts as occupied. Work per frame is capped by a voxel budget.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "dynamap/clean_history.hpp"
+#include "dynamap/status.hpp"
+#include "dynamap/tracker.hpp"
+#include "dynamap/types.hpp"
+
+namespace dynamap {
+
+/// Cleaning parameters. Original: f = 50 frames, boxes × 1.15 with z ± 0.2 m. The round robin
+/// over older boxes and the voxel budget are ours (bounded work per frame).
+struct DynamicRegionCleanerConfig {
+  std::size_t frames = 50;  ///< f: past boxes per track considered (<= kMaxBoxHistory)
+  float inflation = 1.15f;  ///< horizontal extent factor about the box centre
+  float z_margin = 0.2f;    ///< metres added below and above
+  float min_z = -1000.f;    ///< never clear below this height (e.g. ground + 0.2 m)
+  /// Every frame each dynamic track clears its newest box plus about this many older ones, taken
+  /// in turn, so every box of the last f frames is revisited at least every ceil((f - 1) / n)
+  /// frames (0: newest box only).
+  std::size_t older_boxes_per_frame = 3;
+  std::size_t max_voxels_per_frame = 100000;  ///< cap on voxels examined per frame (all tracks)
+  std::size_t max_purge_per_frame = 4096;     ///< cap on expired history entries purged per frame
+
+  Status validate() const noexcept {
+    const bool good = frames >= 1 && frames <= kMaxBoxHistory && std::isfinite(inflation) &&
+                      inflation >= 1.f && std::isfinite(z_margin) && z_margin >= 0.f &&
+                      std::isfinite(min_z);
+    return good ? Status::kOk : Status::kInvalidArgument;
+  }
+};
+
+/// What the last clean() did.
+struct CleanStats {
+  std::size_t dynamic_tracks = 0;
+  std::size_t boxes_cleared = 0;
+  std::size_t voxels_budgeted = 0;  ///< voxels the scanned boxes span (upper bound of work)
+  std::size_t voxels_freed = 0;
+  std::size_t boxes_skipped = 0;  ///< boxes left for later because the budget ran out
+};
+
+class DynamicRegionCleaner {
+ public:
+  /// Validates and applies `config`. Bad config: kInvalidArgument, nothing changes.
+  [[nodiscard]] Status init(const DynamicRegionCleanerConfig& config) noexcept {
+    const Status s = config.validate();
+    if (!ok(s)) return s;
+    config_ = config;
+    frame_ = 0;
+    has_stamp_ = false;
+    return Status::kOk;
+  }
+
+  /// Clears the recent boxes of every dynamic track of `tracker` in `map` (an OccupancyMap, or
+  /// anything with clear_box / resolution) and records freed voxels in `history` at `stamp`.
+  /// kTimeNotIncreasing (nothing changes) when stamp is not after the previous call's.
+  template <class Map, std::size_t Capacity>
+  [[nodiscard]] Status clean(const Tracker& tracker, Map& map, BasicCleanHistory<Capacity>& history,
+                             Stamp stamp) noexcept {
+    if (has_stamp_ && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+    last_stamp_ = stamp;
+    has_stamp_ = true;
+    stats_ = CleanStats{};
+    history.expire(stamp, config_.max_purge_per_frame);
+
+    const float res = map.resolution();
+    std::size_t budget = config_.max_voxels_per_frame;
+    auto record = [&history, stamp](std::uint64_t key, const Eigen::Vector3f&) {
+      history.insert(key, stamp);
+    };
+    auto clear_one = [&](const Box3& past) -> bool {
+      const Box3 region = inflate(past);
+      const std::size_t cost = voxel_span(region, res);
+      if (cost > budget) {
+        ++stats_.boxes_skipped;
+        return false;
+      }
+      budget -= cost;
+      stats_.voxels_budgeted += cost;
+      stats_.voxels_freed += map.clear_box(region, cost, record);
+      ++stats_.boxes_cleared;
+      return true;
+    };
+
+    // Start with a different track each frame so a tight budget does not starve the same ones.
+    const std::size_t n_tracks = tracker.size();
+    for (std::size_t step = 0; step < n_tracks; ++step) {
+      const std::size_t i = (step + frame_) % n_tracks;
+      if (!tracker.obstacle(i).dynamic) continue;
+      ++stats_.dynamic_tracks;
+      std::size_t n_boxes = tracker.box_history_size(i);
+      if (n_boxes > config_.frames) n_boxes = config_.frames;
+      if (n_boxes == 0) continue;
+      (void)clear_one(tracker.past_box(i, 0));  // where it is now
+      if (config_.older_boxes_per_frame == 0) continue;
+      // Older boxes in turn: box number b (counted since the track started) is revisited on the
+      // frames where b = frame (mod period), i.e. at least once every `period` frames.
+      const std::size_t period =
+          (config_.frames - 1 + config_.older_boxes_per_frame - 1) / config_.older_boxes_per_frame;
+      if (period == 0) continue;
+      const std::size_t newest = tracker.obstacle(i).hits - 1;  // one box per matched frame
+      const std::size_t phase = frame_ % period;
+      std::size_t age = (newest + period - phase) % period;  // newest - age = phase (mod period)
+      if (age == 0) age = period;
+      for (; age < n_boxes; age += period) (void)clear_one(tracker.past_box(i, age));
+    }
+    ++frame_;
+    return Status::kOk;
+  }
+
+  const CleanStats& last_stats() const noexcept { return stats_; }
+  const DynamicRegionCleanerConfig& config() const noexcept { return config_; }
+
+ private:
+  Box3 inflate(const Box3& b) const noexcept {
+    const Eigen::Vector3f c = b.center();
+    const Eigen::Vector3f half = 0.5f * b.size();
+    Box3 r;
+    r.min.head<2>() = c.head<2>() - config_.inflation * half.head<2>();
+    r.max.head<2>() = c.head<2>() + config_.inflation * half.head<2>();
+    r.min.z() = std::fmax(b.min.z() - config_.z_margin, config_.min_z);
+    r.max.z() = b.max.z() + config_.z_margin;
+    return r;
+  }
+  /// Voxels a box spans (what clear_box may examine), with room for partial voxels at the edges
+  /// and one visit per 8^3 block.
+  static std::size_t voxel_span(const Box3& b, float res) noexcept {
+    std::size_t voxels = 1;
+    std::size_t blocks = 1;
+    for (int a = 0; a < 3; ++a) {
+      const float extent = b.max[a] - b.min[a];
+      const std::size_t n = static_cast<std::size_t>(extent > 0.f ? extent / res : 0.f) + 2;
+      voxels *= n;
+      blocks *= n / 8 + 2;
+    }
+    return voxels + blocks;
+  }
+
+  DynamicRegionCleanerConfig config_{};
+  CleanStats stats_{};
+  std::size_t frame_ = 0;
+  Stamp last_stamp_ = 0;
+  bool has_stamp_ = false;
+};
+
+}  // namespace dynamap

@@ -1,0 +1,156 @@
+// Tracker: fixed-capacity multi-obstacle tracker. Per frame it associates detections with tracks
+// in the top view, runs a constant-velocity Kalman filter per track, fixes the obstacle size once
+// it has been fully in view, corrects the near-surface bias of depth boxes, and labels each track
+// static or dynamic with the continuity filter and a voting window. No heap, no exceptions.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "dynamap/constants.hpp"
+#include "dynamap/continuity_filter.hpp"
+#include "dynamap/detection.hpp"
+#include "dynamap/kalman_filter.hpp"
+#include "dynamap/status.hpp"
+#include "dynamap/types.hpp"
+
+namespace dynamap {
+
+/// Longest state history per track (k + 1 states for the continuity filter).
+inline constexpr std::size_t kMaxTrackHistory = 32;
+/// Longest box history per track (f frames, walked by the dynamic-region cleaner).
+inline constexpr std::size_t kMaxBoxHistory = 64;
+
+/// Fixed ring of the last `length` values (length <= N chosen at run time); age 0 is the newest.
+template <typename T, std::size_t N>
+class HistoryRing {
+ public:
+  void clear() noexcept { head_ = count_ = 0; }
+  void push(const T& v, std::size_t length) noexcept {
+    data_[head_] = v;
+    head_ = (head_ + 1) % N;
+    if (count_ < length) ++count_;
+  }
+  std::size_t size() const noexcept { return count_; }
+  /// The value pushed `age` pushes ago (age < size()).
+  const T& at_age(std::size_t age) const noexcept { return data_[(head_ + N - 1 - age) % N]; }
+
+ private:
+  std::array<T, N> data_{};
+  std::size_t head_ = 0;
+  std::size_t count_ = 0;
+};
+
+/// Tracker parameters. Defaults: original association thresholds (overlap 0.3, centre gate
+/// 0.22 m), history k = 20, cleaning horizon f = 50; coasting, k' and the margin are ours.
+struct TrackerConfig {
+  KalmanConfig kalman{};
+  ContinuityConfig continuity{};
+  float overlap_threshold = 0.3f;       ///< top-view A_overlap / A_detection for a candidate pair
+  float centre_gate = 0.22f;            ///< or a top-view centre distance below this (m)
+  std::size_t max_missed_frames = 3;    ///< frames a track coasts on its prediction, then dropped
+  std::size_t history_length = 20;      ///< k: the state history holds k + 1 positions
+  std::size_t box_history_length = 50;  ///< f: past boxes kept for dynamic-region cleaning
+  std::size_t size_fix_frames = 10;     ///< k': frames fully in view before the size is frozen
+  int image_width = 640;                ///< depth image size, for the "fully in view" test
+  int image_height = 480;
+  int image_margin = 5;  ///< pixels the image box must stay away from the border
+  /// Shift depth boxes away from the camera by half their missing depth (docs/tracker.md).
+  bool correct_near_surface_bias = true;
+
+  /// kInvalidArgument for out-of-range values (nested configs included).
+  Status validate() const noexcept;
+};
+
+/// One tracked obstacle as the tracker reports it (map frame).
+struct TrackedObstacle {
+  std::uint32_t id = 0;                                ///< unique within a run, never reused
+  Box3 box;                                            ///< filtered centre, estimated full size
+  Eigen::Vector3f velocity = Eigen::Vector3f::Zero();  ///< (vx, vy, 0) from the Kalman filter
+  float speed = 0.f;                                   ///< |velocity| (m/s)
+  float continuity = 0.f;                              ///< last C_con (0 until computable)
+  bool dynamic = false;                                ///< label after voting
+  bool size_fixed = false;                             ///< size frozen after k' frames in view
+  std::uint32_t dynamic_votes = 0;                     ///< dynamic votes in the current window
+  std::uint32_t votes = 0;                             ///< votes in the window (<= c)
+  std::uint32_t age = 0;                               ///< frames since the track started
+  std::uint32_t hits = 0;                              ///< frames with a matched detection
+  std::uint32_t missed_frames = 0;                     ///< consecutive frames without a match
+  Stamp last_seen = 0;                                 ///< stamp of the last matched detection
+};
+
+class Tracker {
+ public:
+  Tracker() noexcept;
+  /// Validates and applies `config`, dropping all tracks. Bad config: kInvalidArgument, no change.
+  [[nodiscard]] Status init(const TrackerConfig& config) noexcept;
+  /// One frame: `count` detections (map frame) seen from camera pose T_map_camera at `stamp`.
+  /// Errors (nothing changes): kNullData (dets null with count > 0), kCapacityExceeded
+  /// (count > kMaxDetections), kNonFinite / kNonUnitQuaternion (pose), kNonFinite /
+  /// kInvalidArgument (NaN or inverted box), kTimeNotIncreasing (stamp <= previous stamp).
+  [[nodiscard]] Status update(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                              Stamp stamp) noexcept;
+  /// Drops all tracks and the stamp; ids keep counting up (never reused within a run).
+  void clear() noexcept;
+
+  /// Current obstacles, compact: entries [0, size()) of obstacle_array().
+  std::size_t size() const noexcept { return output_count_; }
+  const std::array<TrackedObstacle, kMaxTracks>& obstacle_array() const noexcept { return output_; }
+  const TrackedObstacle& obstacle(std::size_t i) const noexcept { return output_[i]; }
+
+  /// Past boxes of obstacle i (measured frames only), age 0 = newest, up to f of them.
+  std::size_t box_history_size(std::size_t i) const noexcept;
+  const Box3& past_box(std::size_t i, std::size_t age) const noexcept;
+
+  /// Detections refused because every track slot was taken (cumulative).
+  std::uint64_t refused_tracks() const noexcept { return refused_tracks_; }
+  /// Tracks dropped after coasting too long (cumulative).
+  std::uint64_t dropped_tracks() const noexcept { return dropped_tracks_; }
+  const TrackerConfig& config() const noexcept { return config_; }
+
+ private:
+  struct Track {
+    TrackedObstacle out;
+    ConstantVelocityKalman kf;
+    DynamicVoter voter;
+    HistoryRing<Eigen::Vector2f, kMaxTrackHistory> positions;  // measured, bias-corrected
+    HistoryRing<Box3, kMaxBoxHistory> boxes;
+    Eigen::Vector2f last_measured = Eigen::Vector2f::Zero();
+    Stamp last_measured_stamp = 0;
+    float z_center = 0.f;
+    Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
+    Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
+    std::size_t in_view_frames = 0;
+    bool active = false;
+  };
+  struct Measurement {  // a detection after bias correction
+    Eigen::Vector3f center;
+    Eigen::Vector3f size;      // estimated full size
+    Eigen::Vector3f raw_size;  // the detection box's own size
+    bool in_view;
+  };
+
+  Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
+                      const Eigen::Vector3f* fixed_size) const noexcept;
+  bool fully_in_view(const ImageBox& b) const noexcept;
+  void start_track(Track& t, const Measurement& m, Stamp stamp) noexcept;
+  void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
+                     Stamp stamp) noexcept;
+  void publish() noexcept;
+
+  TrackerConfig config_{};
+  std::array<Track, kMaxTracks> tracks_{};
+  std::array<TrackedObstacle, kMaxTracks> output_{};
+  std::array<std::uint8_t, kMaxTracks> output_slot_{};
+  std::size_t output_count_ = 0;
+  std::uint32_t next_id_ = 1;
+  Stamp last_stamp_ = 0;
+  bool has_stamp_ = false;
+  std::uint64_t refused_tracks_ = 0;
+  std::uint64_t dropped_tracks_ = 0;
+};
+
+}  // namespace dynamap

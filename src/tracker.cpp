@@ -1,0 +1,293 @@
+#include "dynamap/tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dynamap {
+
+namespace {
+
+float seconds_between(Stamp earlier, Stamp later) noexcept {
+  return static_cast<float>(static_cast<double>(later - earlier) * 1e-9);
+}
+
+/// Top-view overlap area of two boxes.
+float overlap_area_xy(const Box3& a, const Box3& b) noexcept {
+  const float dx = std::min(a.max.x(), b.max.x()) - std::max(a.min.x(), b.min.x());
+  const float dy = std::min(a.max.y(), b.max.y()) - std::max(a.min.y(), b.min.y());
+  return (dx > 0.f && dy > 0.f) ? dx * dy : 0.f;
+}
+
+Status validate_detection(const Detection& d) noexcept {
+  if (!d.box.min.allFinite() || !d.box.max.allFinite()) return Status::kNonFinite;
+  if ((d.box.min.array() > d.box.max.array()).any()) return Status::kInvalidArgument;
+  return Status::kOk;
+}
+
+}  // namespace
+
+Status TrackerConfig::validate() const noexcept {
+  if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
+  const bool good =
+      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
+      std::isfinite(centre_gate) && centre_gate >= 0.f && history_length + 1 <= kMaxTrackHistory &&
+      continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
+      box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 && image_width > 0 &&
+      image_height > 0 && image_margin >= 0 && 2 * image_margin < image_width &&
+      2 * image_margin < image_height;
+  return good ? Status::kOk : Status::kInvalidArgument;
+}
+
+Tracker::Tracker() noexcept {
+  clear();
+}
+
+Status Tracker::init(const TrackerConfig& config) noexcept {
+  const Status s = config.validate();
+  if (!ok(s)) return s;
+  config_ = config;
+  clear();
+  return Status::kOk;
+}
+
+void Tracker::clear() noexcept {
+  for (Track& t : tracks_) t.active = false;
+  output_count_ = 0;
+  has_stamp_ = false;
+  last_stamp_ = 0;
+}
+
+bool Tracker::fully_in_view(const ImageBox& b) const noexcept {
+  const int m = config_.image_margin;
+  if (b.u1 < b.u0 || b.v1 < b.v0) return false;  // unknown / empty image box
+  return b.u0 >= m && b.v0 >= m && b.u1 <= config_.image_width - 1 - m &&
+         b.v1 <= config_.image_height - 1 - m;
+}
+
+Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3f& camera,
+                                      const Eigen::Vector3f* fixed_size) const noexcept {
+  Measurement m;
+  m.center = det.box.center();
+  m.raw_size = det.box.size();
+  m.in_view = fully_in_view(det.image_box);
+  m.size = m.raw_size;
+  if (fixed_size != nullptr) m.size = *fixed_size;
+  if (config_.correct_near_surface_bias) {
+    if (fixed_size == nullptr) {
+      // Depth sees only the near surface, so the extent along the ray is too small. Assume a
+      // round / square footprint: the full horizontal size is the larger horizontal extent.
+      const float footprint = std::max(m.raw_size.x(), m.raw_size.y());
+      m.size.x() = footprint;
+      m.size.y() = footprint;
+    }
+    // The near face is measured correctly; the missing depth lies on the far side, so move the
+    // centre away from the camera by half of it, per horizontal axis.
+    for (int a = 0; a < 2; ++a) {
+      const float missing = std::max(0.f, m.size[a] - m.raw_size[a]);
+      const float away = m.center[a] - camera[a];
+      if (away > 0.f) {
+        m.center[a] += 0.5f * missing;
+      } else if (away < 0.f) {
+        m.center[a] -= 0.5f * missing;
+      }
+    }
+  }
+  return m;
+}
+
+void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept {
+  t.active = true;
+  t.out = TrackedObstacle{};
+  t.out.id = next_id_++;
+  t.out.age = 1;
+  t.out.hits = 1;
+  t.out.last_seen = stamp;
+  t.kf.reset(Eigen::Vector4f(m.center.x(), m.center.y(), 0.f, 0.f), config_.kalman);
+  t.voter.reset();
+  t.positions.clear();
+  t.positions.push(m.center.head<2>(), config_.history_length + 1);
+  t.boxes.clear();
+  t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
+  t.last_measured = m.center.head<2>();
+  t.last_measured_stamp = stamp;
+  t.z_center = m.center.z();
+  t.size = m.size;
+  t.in_view_frames = m.in_view ? 1 : 0;
+  t.size_sum = m.in_view ? m.size : Eigen::Vector3f::Zero();
+  if (t.in_view_frames >= config_.size_fix_frames) t.out.size_fixed = true;
+}
+
+void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
+                            Stamp stamp) noexcept {
+  const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr);
+  const Eigen::Vector2f xy = m.center.head<2>();
+  const float dt = seconds_between(t.last_measured_stamp, stamp);
+  const Eigen::Vector2f v_meas = (xy - t.last_measured) / dt;
+  (void)t.kf.update(Eigen::Vector4f(xy.x(), xy.y(), v_meas.x(), v_meas.y()));
+
+  t.last_measured = xy;
+  t.last_measured_stamp = stamp;
+  t.z_center = m.center.z();
+  t.positions.push(xy, config_.history_length + 1);
+  t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
+
+  if (!t.out.size_fixed) {
+    t.size = m.size;
+    if (m.in_view) {
+      ++t.in_view_frames;
+      t.size_sum += m.size;
+    } else {
+      // Clipped by the image border: the box may be cut, start counting again.
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
+    }
+    if (t.in_view_frames >= config_.size_fix_frames) {
+      t.size = t.size_sum / static_cast<float>(t.in_view_frames);
+      t.out.size_fixed = true;
+    }
+  }
+
+  t.out.missed_frames = 0;
+  ++t.out.hits;
+  t.out.last_seen = stamp;
+
+  // Continuity filter over the measured history (oldest first), then the vote.
+  std::array<Eigen::Vector2f, kMaxTrackHistory> ordered;
+  const std::size_t n = t.positions.size();
+  for (std::size_t i = 0; i < n; ++i) ordered[i] = t.positions.at_age(n - 1 - i);
+  float c_con = 0.f;
+  if (continuity_score(ordered.data(), n, config_.continuity.displacement_frames, &c_con)) {
+    t.out.continuity = c_con;
+    const float speed = t.kf.velocity().norm();
+    const ContinuityFilter filter(config_.continuity);
+    t.voter.push(filter.vote(speed, c_con, t.size), config_.continuity);
+  }
+}
+
+Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                       Stamp stamp) noexcept {
+  // --- validate everything before touching any state ---
+  if (count > 0 && dets == nullptr) return Status::kNullData;
+  if (count > kMaxDetections) return Status::kCapacityExceeded;
+  const Status pose_status = validate_pose(T_map_camera);
+  if (!ok(pose_status)) return pose_status;
+  if (has_stamp_ && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Status s = validate_detection(dets[i]);
+    if (!ok(s)) return s;
+  }
+
+  const Eigen::Vector3f camera = T_map_camera.translation;
+  const float dt = has_stamp_ ? seconds_between(last_stamp_, stamp) : 0.f;
+
+  // --- predict every live track to this frame ---
+  for (Track& t : tracks_) {
+    if (!t.active) continue;
+    if (dt > 0.f) (void)t.kf.predict(dt);
+    ++t.out.age;
+  }
+
+  // --- candidate pairs in the top view, closest centre first, one-to-one ---
+  std::array<Measurement, kMaxDetections> meas;
+  for (std::size_t i = 0; i < count; ++i) meas[i] = measure(dets[i], camera, nullptr);
+
+  struct Pair {
+    float distance;
+    std::uint8_t det;
+    std::uint8_t slot;
+  };
+  std::array<Pair, kMaxDetections * kMaxTracks> pairs;
+  std::size_t pair_count = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Box3 det_box = Box3::from_center_size(meas[i].center, meas[i].size);
+    const Eigen::Vector3f ds = det_box.size();
+    const float det_area = ds.x() * ds.y();
+    for (std::size_t s = 0; s < kMaxTracks; ++s) {
+      const Track& t = tracks_[s];
+      if (!t.active) continue;
+      const Eigen::Vector2f predicted = t.kf.position();
+      const Box3 track_box =
+          Box3::from_center_size(Eigen::Vector3f(predicted.x(), predicted.y(), t.z_center), t.size);
+      const float distance = (meas[i].center.head<2>() - predicted).norm();
+      const float overlap = overlap_area_xy(det_box, track_box);
+      const bool overlapping =
+          det_area > 0.f ? overlap >= config_.overlap_threshold * det_area : false;
+      if (overlapping || distance < config_.centre_gate) {
+        pairs[pair_count++] =
+            Pair{distance, static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(s)};
+      }
+    }
+  }
+  std::sort(pairs.begin(), pairs.begin() + static_cast<std::ptrdiff_t>(pair_count),
+            [](const Pair& a, const Pair& b) { return a.distance < b.distance; });
+
+  std::array<bool, kMaxDetections> det_used{};
+  std::array<bool, kMaxTracks> track_used{};
+  for (std::size_t p = 0; p < pair_count; ++p) {
+    const Pair& pr = pairs[p];
+    if (det_used[pr.det] || track_used[pr.slot]) continue;
+    det_used[pr.det] = true;
+    track_used[pr.slot] = true;
+    correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
+  }
+
+  // --- unmatched tracks coast, then are dropped ---
+  for (std::size_t s = 0; s < kMaxTracks; ++s) {
+    Track& t = tracks_[s];
+    if (!t.active || track_used[s]) continue;
+    ++t.out.missed_frames;
+    if (t.out.missed_frames > config_.max_missed_frames) {
+      t.active = false;
+      ++dropped_tracks_;
+    }
+  }
+
+  // --- unmatched detections start tracks while slots last ---
+  std::size_t free_slot = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (det_used[i]) continue;
+    while (free_slot < kMaxTracks && (tracks_[free_slot].active || track_used[free_slot])) {
+      ++free_slot;
+    }
+    if (free_slot == kMaxTracks) {
+      ++refused_tracks_;
+      continue;
+    }
+    start_track(tracks_[free_slot], meas[i], stamp);
+    ++free_slot;
+  }
+
+  last_stamp_ = stamp;
+  has_stamp_ = true;
+  publish();
+  return Status::kOk;
+}
+
+void Tracker::publish() noexcept {
+  output_count_ = 0;
+  for (std::size_t s = 0; s < kMaxTracks; ++s) {
+    Track& t = tracks_[s];
+    if (!t.active) continue;
+    const Eigen::Vector2f p = t.kf.position();
+    const Eigen::Vector2f v = t.kf.velocity();
+    t.out.box = Box3::from_center_size(Eigen::Vector3f(p.x(), p.y(), t.z_center), t.size);
+    t.out.velocity = Eigen::Vector3f(v.x(), v.y(), 0.f);
+    t.out.speed = v.norm();
+    t.out.dynamic = t.voter.dynamic();
+    t.out.dynamic_votes = static_cast<std::uint32_t>(t.voter.dynamic_votes());
+    t.out.votes = static_cast<std::uint32_t>(t.voter.votes());
+    output_[output_count_] = t.out;
+    output_slot_[output_count_] = static_cast<std::uint8_t>(s);
+    ++output_count_;
+  }
+}
+
+std::size_t Tracker::box_history_size(std::size_t i) const noexcept {
+  return i < output_count_ ? tracks_[output_slot_[i]].boxes.size() : 0;
+}
+
+const Box3& Tracker::past_box(std::size_t i, std::size_t age) const noexcept {
+  return tracks_[output_slot_[i]].boxes.at_age(age);
+}
+
+}  // namespace dynamap

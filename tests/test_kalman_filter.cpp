@@ -1,0 +1,152 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "alloc_guard.hpp"
+#include "dynamap/kalman_filter.hpp"
+
+namespace dynamap {
+namespace {
+
+// Feeds the filter the way the tracker does: z = [position, (position - last) / dt].
+struct Feeder {
+  ConstantVelocityKalman kf;
+  Eigen::Vector2f last = Eigen::Vector2f::Zero();
+  bool started = false;
+
+  void step(const Eigen::Vector2f& z, float dt, const KalmanConfig& config) {
+    if (!started) {
+      kf.reset(Eigen::Vector4f(z.x(), z.y(), 0.f, 0.f), config);
+      started = true;
+    } else {
+      ASSERT_EQ(kf.predict(dt), Status::kOk);
+      const Eigen::Vector2f v = (z - last) / dt;
+      ASSERT_EQ(kf.update(Eigen::Vector4f(z.x(), z.y(), v.x(), v.y())), Status::kOk);
+    }
+    last = z;
+  }
+};
+
+// σ = 5 cm position noise, 30 frames at 30 Hz: the velocity error is a random variable (even a
+// least-squares line fit has a 3.3 cm/s std here), so we look at its mean and median over 20
+// fixed seeds rather than at one lucky or unlucky run.
+TEST(KalmanFilter, ConvergesToTrueVelocityWithin5cmPerSecondAfter30Frames) {
+  constexpr int kSeeds = 20;
+  std::array<float, kSeeds> errors{};
+  for (int seed = 0; seed < kSeeds; ++seed) {
+    std::mt19937 rng(1000u + static_cast<unsigned>(seed));
+    std::normal_distribution<float> noise(0.f, 0.05f);
+    const float heading = 0.3f * static_cast<float>(seed);
+    const Eigen::Vector2f v_true(std::cos(heading), std::sin(heading));  // 1 m/s
+    const float dt = 1.f / 30.f;
+    Feeder f;
+    for (int frame = 0; frame < 30; ++frame) {
+      const Eigen::Vector2f p = Eigen::Vector2f(2.f, -1.f) + v_true * (dt * frame);
+      f.step(p + Eigen::Vector2f(noise(rng), noise(rng)), dt, KalmanConfig{});
+    }
+    errors[seed] = (f.kf.velocity() - v_true).norm();
+  }
+  float mean = 0.f;
+  for (float e : errors) mean += e / kSeeds;
+  std::array<float, kSeeds> sorted = errors;
+  std::sort(sorted.begin(), sorted.end());
+  const float median = 0.5f * (sorted[kSeeds / 2 - 1] + sorted[kSeeds / 2]);
+  EXPECT_LT(mean, 0.05f);
+  EXPECT_LT(median, 0.05f);
+}
+
+TEST(KalmanFilter, OriginalConstantsAreAvailable) {
+  const KalmanConfig c = KalmanConfig::original();
+  EXPECT_FLOAT_EQ(c.p0_position, 0.3f);
+  EXPECT_FLOAT_EQ(c.q_velocity, 0.002f);
+  EXPECT_FLOAT_EQ(c.r_velocity, 0.3f);
+  EXPECT_EQ(c.validate(), Status::kOk);
+  KalmanConfig bad;
+  bad.r_position = 0.f;
+  EXPECT_EQ(bad.validate(), Status::kInvalidArgument);
+}
+
+// Frame intervals between 10 and 90 ms (jitter and dropped frames): because A and the velocity
+// measurement use the real dt, exact positions give the exact velocity; an assumed 30 Hz would
+// be off by the ratio of the intervals.
+TEST(KalmanFilter, IrregularIntervalsHandledThroughDt) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> interval(0.010f, 0.090f);
+  const Eigen::Vector2f v_true(-0.7f, 1.2f);
+  Feeder exact;
+  Feeder fixed_rate;  // the same data, pretending every interval is 1/30 s
+  float t = 0.f;
+  for (int frame = 0; frame < 60; ++frame) {
+    const float dt = frame == 0 ? 0.f : interval(rng);
+    t += dt;
+    const Eigen::Vector2f p = Eigen::Vector2f(1.f, 1.f) + v_true * t;
+    exact.step(p, dt, KalmanConfig{});
+    fixed_rate.step(p, 1.f / 30.f, KalmanConfig{});
+  }
+  EXPECT_LT((exact.kf.velocity() - v_true).norm(), 0.01f);
+  EXPECT_LT((exact.kf.position() - (Eigen::Vector2f(1.f, 1.f) + v_true * t)).norm(), 0.005f);
+  EXPECT_GT((fixed_rate.kf.velocity() - v_true).norm(), 0.1f);  // the bug we avoid
+
+  // Noisy irregular data still converges (mean error over seeds, as above).
+  float mean = 0.f;
+  constexpr int kSeeds = 20;
+  for (int seed = 0; seed < kSeeds; ++seed) {
+    std::mt19937 r(50u + static_cast<unsigned>(seed));
+    std::normal_distribution<float> noise(0.f, 0.05f);
+    Feeder f;
+    float time = 0.f;
+    for (int frame = 0; frame < 45; ++frame) {  // about 1.4 s at a mean of 32 ms
+      const float dt =
+          frame == 0 ? 0.f : 0.010f + 0.044f * static_cast<float>((frame * 7) % 11) / 10.f;
+      time += dt;
+      const Eigen::Vector2f p = v_true * time + Eigen::Vector2f(noise(r), noise(r));
+      f.step(p, dt, KalmanConfig{});
+    }
+    mean += (f.kf.velocity() - v_true).norm() / kSeeds;
+  }
+  EXPECT_LT(mean, 0.05f);
+}
+
+TEST(KalmanFilter, ProcessNoiseScalesWithDt) {
+  ConstantVelocityKalman a, b;
+  a.reset(Eigen::Vector4f::Zero(), KalmanConfig{});
+  b.reset(Eigen::Vector4f::Zero(), KalmanConfig{});
+  ASSERT_EQ(a.predict(0.1f), Status::kOk);
+  ASSERT_EQ(b.predict(0.05f), Status::kOk);
+  ASSERT_EQ(b.predict(0.05f), Status::kOk);
+  // Velocity variance grows by the same total Q for one long or two short steps.
+  EXPECT_NEAR(a.covariance()(2, 2), b.covariance()(2, 2), 1e-6f);
+  EXPECT_GT(a.covariance()(2, 2), KalmanConfig{}.p0_velocity);
+}
+
+TEST(KalmanFilter, BadInputLeavesStateUnchanged) {
+  ConstantVelocityKalman kf;
+  kf.reset(Eigen::Vector4f(1.f, 2.f, 0.5f, 0.f), KalmanConfig{});
+  const Eigen::Vector4f x = kf.state();
+  const Eigen::Matrix4f p = kf.covariance();
+  EXPECT_EQ(kf.predict(0.f), Status::kInvalidArgument);
+  EXPECT_EQ(kf.predict(-0.1f), Status::kInvalidArgument);
+  EXPECT_EQ(kf.predict(std::numeric_limits<float>::quiet_NaN()), Status::kInvalidArgument);
+  EXPECT_EQ(kf.update(Eigen::Vector4f(std::numeric_limits<float>::quiet_NaN(), 0.f, 0.f, 0.f)),
+            Status::kNonFinite);
+  EXPECT_EQ(kf.state(), x);
+  EXPECT_EQ(kf.covariance(), p);
+}
+
+TEST(KalmanFilter, NoHeapAllocation) {
+  ConstantVelocityKalman kf;
+  test::AllocationGuard guard;
+  kf.reset(Eigen::Vector4f::Zero(), KalmanConfig{});
+  for (int i = 0; i < 100; ++i) {
+    (void)kf.predict(0.033f);
+    (void)kf.update(Eigen::Vector4f(0.01f * static_cast<float>(i), 0.f, 0.3f, 0.f));
+  }
+  EXPECT_EQ(guard.allocations(), 0u);
+}
+
+}  // namespace
+}  // namespace dynamap

@@ -1,0 +1,460 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "alloc_guard.hpp"
+#include "dynamap/tracker.hpp"
+
+namespace dynamap {
+namespace {
+
+constexpr Stamp kFrame = 33'333'333;  // 30 Hz
+const Eigen::Vector3f kPerson(0.5f, 0.5f, 1.7f);
+constexpr ImageBox kInView{200, 100, 300, 400};
+constexpr ImageBox kClipped{0, 100, 100, 400};  // touches the left image border
+
+Detection detection(const Eigen::Vector3f& center, const Eigen::Vector3f& size = kPerson,
+                    const ImageBox& image_box = kInView) {
+  Detection d;
+  d.box = Box3::from_center_size(center, size);
+  d.raw_box = d.box;
+  d.image_box = image_box;
+  d.near_depth = center.x();
+  d.refined = true;
+  return d;
+}
+
+Pose camera_at(const Eigen::Vector3f& t = Eigen::Vector3f::Zero()) {
+  Pose p;
+  p.translation = t;
+  return p;
+}
+
+std::unique_ptr<Tracker> make_tracker(const TrackerConfig& config = {}) {
+  auto t = std::make_unique<Tracker>();
+  EXPECT_EQ(t->init(config), Status::kOk);
+  return t;
+}
+
+const TrackedObstacle* find_id(const Tracker& t, std::uint32_t id) {
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (t.obstacle(i).id == id) return &t.obstacle(i);
+  }
+  return nullptr;
+}
+
+// --- association -----------------------------------------------------------------------------
+
+TEST(TrackerAssociation, CrossingTargetsKeepTheirIds) {
+  auto tracker = make_tracker();
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.f, 0.02f);
+  // A and B walk at 1 m/s on perpendicular lines through (4, 0) and reach it in the same frame.
+  const Eigen::Vector3f cross(4.f, 0.f, 0.85f);
+  const Eigen::Vector3f va = Eigen::Vector3f(1.f, 1.f, 0.f).normalized();
+  const Eigen::Vector3f vb = Eigen::Vector3f(-1.f, 1.f, 0.f).normalized();
+  std::uint32_t id_a = 0, id_b = 0;
+  for (int f = 0; f <= 120; ++f) {
+    const float t = (f - 60) / 30.f;  // both at the crossing at frame 60
+    const Eigen::Vector3f n(noise(rng), noise(rng), 0.f);
+    const Eigen::Vector3f n2(noise(rng), noise(rng), 0.f);
+    const Eigen::Vector3f pa = cross + va * t, pb = cross + vb * t;
+    const Detection dets[2] = {detection(pa + n), detection(pb + n2)};
+    ASSERT_EQ(tracker->update(dets, 2, camera_at(), kFrame * (f + 1)), Status::kOk);
+    ASSERT_EQ(tracker->size(), 2u) << "frame " << f;
+    if (f == 0) {
+      for (std::size_t i = 0; i < 2; ++i) {
+        const Eigen::Vector3f c = tracker->obstacle(i).box.center();
+        ((c - pa).norm() < (c - pb).norm() ? id_a : id_b) = tracker->obstacle(i).id;
+      }
+      ASSERT_NE(id_a, id_b);
+    }
+    const TrackedObstacle* a = find_id(*tracker, id_a);
+    const TrackedObstacle* b = find_id(*tracker, id_b);
+    ASSERT_NE(a, nullptr);
+    ASSERT_NE(b, nullptr);
+    if (std::abs(f - 60) >= 5) {  // away from the crossing, each id is on its own target
+      EXPECT_LT((a->box.center() - pa).head<2>().norm(), 0.15f) << "frame " << f;
+      EXPECT_LT((b->box.center() - pb).head<2>().norm(), 0.15f) << "frame " << f;
+    }
+  }
+  const TrackedObstacle* a = find_id(*tracker, id_a);
+  EXPECT_GT(a->velocity.head<2>().dot(va.head<2>()), 0.8f);  // still moving A's way
+}
+
+TEST(TrackerAssociation, TwoMissedFramesKeepTheIdLongerGapsDropIt) {
+  auto tracker = make_tracker();  // coasts up to 3 frames
+  Stamp stamp = 0;
+  auto at = [](int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); };
+  int f = 0;
+  for (; f < 30; ++f) {
+    const Detection d = detection(at(f));
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  ASSERT_EQ(tracker->size(), 1u);
+  const std::uint32_t id = tracker->obstacle(0).id;
+  for (int gap = 1; gap <= 2; ++gap, ++f) {
+    ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);  // coasting
+    EXPECT_EQ(tracker->obstacle(0).missed_frames, static_cast<std::uint32_t>(gap));
+    // The coasting box follows the prediction.
+    EXPECT_LT((tracker->obstacle(0).box.center() - at(f)).head<2>().norm(), 0.05f);
+  }
+  const Detection back = detection(at(f++));
+  ASSERT_EQ(tracker->update(&back, 1, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(tracker->size(), 1u);
+  EXPECT_EQ(tracker->obstacle(0).id, id);
+  EXPECT_EQ(tracker->obstacle(0).missed_frames, 0u);
+
+  // Four missed frames (> 3) drop it; when it shows up again it is a new obstacle.
+  for (int gap = 0; gap < 4; ++gap, ++f) {
+    ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  EXPECT_EQ(tracker->size(), 0u);
+  EXPECT_EQ(tracker->dropped_tracks(), 1u);
+  const Detection again = detection(at(f));
+  ASSERT_EQ(tracker->update(&again, 1, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(tracker->size(), 1u);
+  EXPECT_GT(tracker->obstacle(0).id, id);
+}
+
+TEST(TrackerAssociation, NewTargetGetsNewIdAndIdsAreNeverReused) {
+  auto tracker = make_tracker();
+  Stamp stamp = 0;
+  const Detection a = detection({4.f, 0.f, 0.85f});
+  for (int f = 0; f < 10; ++f)
+    ASSERT_EQ(tracker->update(&a, 1, camera_at(), stamp += kFrame), Status::kOk);
+  const std::uint32_t id_a = tracker->obstacle(0).id;
+  const Detection ab[2] = {a, detection({4.f, 2.f, 0.85f})};
+  ASSERT_EQ(tracker->update(ab, 2, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(tracker->size(), 2u);
+  EXPECT_NE(tracker->obstacle(0).id, tracker->obstacle(1).id);
+  EXPECT_NE(find_id(*tracker, id_a), nullptr);
+  std::uint32_t max_id = std::max(tracker->obstacle(0).id, tracker->obstacle(1).id);
+  // Churn: targets appear and vanish at new places; every new track takes a fresh id.
+  for (int round = 0; round < 5; ++round) {
+    for (int f = 0; f < 5; ++f) {
+      ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    const Detection c = detection({4.f, -2.f + round, 0.85f});
+    ASSERT_EQ(tracker->update(&c, 1, camera_at(), stamp += kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    EXPECT_GT(tracker->obstacle(0).id, max_id);
+    max_id = tracker->obstacle(0).id;
+  }
+}
+
+TEST(TrackerAssociation, OneTrackIsClaimedByOneDetectionOnly) {
+  auto tracker = make_tracker();
+  Stamp stamp = 0;
+  const Detection a = detection({4.f, 0.f, 0.85f});
+  ASSERT_EQ(tracker->update(&a, 1, camera_at(), stamp += kFrame), Status::kOk);
+  const std::uint32_t id = tracker->obstacle(0).id;
+  // Two detections both overlap the one track: the closer keeps the id, the other starts anew.
+  const Detection two[2] = {detection({4.f, 0.3f, 0.85f}), detection({4.f, 0.05f, 0.85f})};
+  ASSERT_EQ(tracker->update(two, 2, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(tracker->size(), 2u);
+  const TrackedObstacle* kept = find_id(*tracker, id);
+  ASSERT_NE(kept, nullptr);
+  EXPECT_EQ(kept->hits, 2u);
+  EXPECT_LT(std::abs(kept->box.center().y() - 0.05f), 0.1f);
+}
+
+TEST(TrackerAssociation, MoreTargetsThanCapacityAreRefusedAndCounted) {
+  auto tracker = make_tracker();
+  std::vector<Detection> dets;
+  for (std::size_t i = 0; i < kMaxTracks; ++i) {
+    dets.push_back(detection({4.f + 2.f * (i % 8), 2.f * (i / 8), 0.85f}));
+  }
+  ASSERT_EQ(tracker->update(dets.data(), dets.size(), camera_at(), kFrame), Status::kOk);
+  ASSERT_EQ(tracker->size(), kMaxTracks);
+  EXPECT_EQ(tracker->refused_tracks(), 0u);
+  // Half the targets vanish (their tracks coast and keep their slots), 16 new ones appear.
+  std::vector<Detection> next(dets.begin(), dets.begin() + kMaxTracks / 2);
+  for (std::size_t i = 0; i < kMaxTracks / 2; ++i)
+    next.push_back(detection({-10.f, 3.f * i, 0.85f}));
+  ASSERT_EQ(tracker->update(next.data(), next.size(), camera_at(), 2 * kFrame), Status::kOk);
+  EXPECT_EQ(tracker->size(), kMaxTracks);
+  EXPECT_EQ(tracker->refused_tracks(), kMaxTracks / 2);
+  for (std::size_t i = 0; i < tracker->size(); ++i)
+    EXPECT_GT(tracker->obstacle(i).box.center().x(), 0.f);
+}
+
+// --- static / dynamic ------------------------------------------------------------------------
+
+// Returns the first frame (0-based) at which the track is dynamic, or -1; also reports whether
+// the label was ever dynamic.
+struct LabelRun {
+  int first_dynamic = -1;
+  int frames = 0;
+};
+
+template <class Center>
+LabelRun run_target(Tracker& tracker, int frames, Center&& center_of_frame,
+                    const Eigen::Vector3f& size = kPerson) {
+  LabelRun run;
+  Stamp stamp = 0;
+  for (int f = 0; f < frames; ++f) {
+    Box3 box = Box3::from_center_size(center_of_frame(f, nullptr), size);
+    center_of_frame(f, &box);  // may jitter the corners
+    Detection d = detection(box.center(), box.size());
+    d.box = box;
+    EXPECT_EQ(tracker.update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    EXPECT_EQ(tracker.size(), 1u);
+    if (tracker.size() == 1 && tracker.obstacle(0).dynamic && run.first_dynamic < 0) {
+      run.first_dynamic = f;
+    }
+  }
+  run.frames = frames;
+  return run;
+}
+
+TEST(TrackerLabels, NoisyWalkerIsDynamicWithinOneSecond) {
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    auto tracker = make_tracker();
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> noise(0.f, 0.05f);
+    const Eigen::Vector3f start(4.f, -1.5f, 0.85f);
+    const Eigen::Vector3f v(0.6f, 0.8f, 0.f);  // 1 m/s
+    const LabelRun run = run_target(*tracker, 45, [&](int f, Box3* box) {
+      if (box != nullptr) return Eigen::Vector3f();
+      return Eigen::Vector3f(start + v * (f / 30.f) + Eigen::Vector3f(noise(rng), noise(rng), 0.f));
+    });
+    ASSERT_GE(run.first_dynamic, 0) << "seed " << seed;
+    EXPECT_LE(run.first_dynamic, 30) << "seed " << seed;  // frame 30 is t = 1 s
+    EXPECT_TRUE(tracker->obstacle(0).dynamic);
+    EXPECT_NEAR(tracker->obstacle(0).speed, 1.f, 0.2f);
+  }
+}
+
+TEST(TrackerLabels, StaticTargetWithSameNoiseIsNeverDynamicOver30Seconds) {
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    auto tracker = make_tracker();
+    std::mt19937 rng(100 + seed);
+    std::normal_distribution<float> noise(0.f, 0.05f);
+    const LabelRun run = run_target(*tracker, 900, [&](int, Box3* box) {
+      if (box != nullptr) return Eigen::Vector3f();
+      return Eigen::Vector3f(Eigen::Vector3f(4.f, 0.5f, 0.85f) +
+                             Eigen::Vector3f(noise(rng), noise(rng), 0.f));
+    });
+    EXPECT_EQ(run.first_dynamic, -1) << "seed " << seed;
+    EXPECT_EQ(tracker->obstacle(0).votes, 20u);
+  }
+}
+
+TEST(TrackerLabels, StaticTargetWithJitteryBoxesIsNeverDynamicOver30Seconds) {
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    auto tracker = make_tracker();
+    std::mt19937 rng(200 + seed);
+    std::uniform_real_distribution<float> jitter(-0.15f, 0.15f);  // each face moves up to 15 cm
+    const LabelRun run = run_target(*tracker, 900, [&](int, Box3* box) {
+      if (box == nullptr) return Eigen::Vector3f(4.f, 0.5f, 0.85f);
+      for (int a = 0; a < 2; ++a) {
+        box->min[a] += jitter(rng);
+        box->max[a] += jitter(rng);
+      }
+      return Eigen::Vector3f();
+    });
+    EXPECT_EQ(run.first_dynamic, -1) << "seed " << seed;
+  }
+}
+
+TEST(TrackerLabels, OptionalSizeCheckKeepsImplausibleSizesStatic) {
+  TrackerConfig config;
+  config.continuity.check_size = true;  // person-sized boxes only
+  const Eigen::Vector3f car(3.f, 3.f, 1.5f);
+  auto moving = [](int f, Box3* box) {
+    if (box != nullptr) return Eigen::Vector3f();
+    return Eigen::Vector3f(6.f, -1.f + f / 30.f, 0.75f);
+  };
+  auto checked = make_tracker(config);
+  EXPECT_EQ(run_target(*checked, 60, moving, car).first_dynamic, -1);
+  auto unchecked = make_tracker();
+  EXPECT_GE(run_target(*unchecked, 60, moving, car).first_dynamic, 0);
+}
+
+// --- size fixing and bias correction ---------------------------------------------------------
+
+TEST(TrackerSize, FrozenWhenFullyInViewNotWhenClipped) {
+  TrackerConfig config;
+  config.size_fix_frames = 10;
+  auto in_view = make_tracker(config);
+  auto clipped = make_tracker(config);
+  Stamp stamp = 0;
+  for (int f = 0; f < 40; ++f) {
+    stamp += kFrame;
+    const float grow = 0.01f * static_cast<float>(f % 3);  // the detector's size wobbles
+    const Eigen::Vector3f size(0.5f + grow, 0.5f + grow, 1.7f);
+    const Detection a = detection({4.f, 0.f, 0.85f}, size, kInView);
+    const Detection b = detection({4.f, 0.f, 0.85f}, size, kClipped);
+    ASSERT_EQ(in_view->update(&a, 1, camera_at(), stamp), Status::kOk);
+    ASSERT_EQ(clipped->update(&b, 1, camera_at(), stamp), Status::kOk);
+    EXPECT_EQ(in_view->obstacle(0).size_fixed, f >= 9) << "frame " << f;
+    EXPECT_FALSE(clipped->obstacle(0).size_fixed);
+  }
+  // Frozen at the mean of the 10 in-view sizes: 0.5 + (0+1+2+0+1+2+0+1+2+0)/100 = 0.509.
+  EXPECT_NEAR(in_view->obstacle(0).box.size().x(), 0.509f, 1e-4f);
+  EXPECT_NEAR(in_view->obstacle(0).box.size().z(), 1.7f, 1e-4f);
+  // The clipped one follows the current detection.
+  EXPECT_NEAR(clipped->obstacle(0).box.size().x(), 0.5f + 0.01f * (39 % 3), 1e-4f);
+}
+
+TEST(TrackerSize, ClippingRestartsTheCount) {
+  auto tracker = make_tracker();  // k' = 10
+  Stamp stamp = 0;
+  for (int f = 0; f < 30; ++f) {
+    // Clipped every 8th frame: never 10 consecutive frames in view.
+    const Detection d = detection({4.f, 0.f, 0.85f}, kPerson, f % 8 == 7 ? kClipped : kInView);
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    EXPECT_FALSE(tracker->obstacle(0).size_fixed);
+  }
+}
+
+// A person (cylinder, radius 0.25 m, centre (3, 0)) seen from the origin: depth shows only the
+// near half, x in [2.75, 3.0]. The tracker should report the true centre, not 2.875.
+TEST(TrackerBias, NearSurfaceBoxIsPushedAwayFromTheCamera) {
+  const Eigen::Vector3f truth(3.f, 0.f, 0.85f);
+  Box3 seen;
+  seen.min = Eigen::Vector3f(2.75f, -0.25f, 0.f);
+  seen.max = Eigen::Vector3f(3.0f, 0.25f, 1.7f);
+  auto run = [&](bool correct, const Eigen::Vector3f& camera, const Box3& box) {
+    TrackerConfig config;
+    config.correct_near_surface_bias = correct;
+    auto tracker = make_tracker(config);
+    Detection d = detection(box.center(), box.size());
+    d.box = box;
+    Stamp stamp = 0;
+    for (int f = 0; f < 20; ++f) {
+      EXPECT_EQ(tracker->update(&d, 1, camera_at(camera), stamp += kFrame), Status::kOk);
+    }
+    return tracker->obstacle(0);
+  };
+  const TrackedObstacle corrected = run(true, Eigen::Vector3f::Zero(), seen);
+  EXPECT_NEAR(corrected.box.center().x(), truth.x(), 0.01f);
+  EXPECT_NEAR(corrected.box.center().y(), truth.y(), 0.01f);
+  EXPECT_NEAR(corrected.box.size().x(), 0.5f, 0.01f);
+  const TrackedObstacle raw = run(false, Eigen::Vector3f::Zero(), seen);
+  EXPECT_NEAR(raw.box.center().x(), 2.875f, 0.01f);  // the bias we remove
+
+  // Seen from the other side (camera at x = 6): near half is x in [3.0, 3.25].
+  Box3 other = seen;
+  other.min.x() = 3.0f;
+  other.max.x() = 3.25f;
+  const TrackedObstacle back = run(true, Eigen::Vector3f(6.f, 0.f, 1.f), other);
+  EXPECT_NEAR(back.box.center().x(), truth.x(), 0.01f);
+}
+
+// --- robustness ------------------------------------------------------------------------------
+
+void expect_same_output(const Tracker& a, const Tracker& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const TrackedObstacle& x = a.obstacle(i);
+    const TrackedObstacle& y = b.obstacle(i);
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.box.min, y.box.min);
+    EXPECT_EQ(x.box.max, y.box.max);
+    EXPECT_EQ(x.velocity, y.velocity);
+    EXPECT_EQ(x.age, y.age);
+    EXPECT_EQ(x.hits, y.hits);
+    EXPECT_EQ(x.missed_frames, y.missed_frames);
+    EXPECT_EQ(x.dynamic_votes, y.dynamic_votes);
+    EXPECT_EQ(x.votes, y.votes);
+  }
+  EXPECT_EQ(a.refused_tracks(), b.refused_tracks());
+}
+
+TEST(TrackerRobustness, BadInputGetsStatusAndChangesNothing) {
+  auto tracker = make_tracker();
+  auto twin = make_tracker();  // sees only the good frames
+  Stamp stamp = 0;
+  auto good = [](int f) {
+    return std::vector<Detection>{detection({4.f, -1.f + f / 30.f, 0.85f}),
+                                  detection({6.f, 1.f, 0.85f})};
+  };
+  int f = 0;
+  for (; f < 20; ++f) {
+    const auto d = good(f);
+    stamp += kFrame;
+    ASSERT_EQ(tracker->update(d.data(), d.size(), camera_at(), stamp), Status::kOk);
+    ASSERT_EQ(twin->update(d.data(), d.size(), camera_at(), stamp), Status::kOk);
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  auto d = good(f);
+  d[1].box.max.y() = nan;
+  EXPECT_EQ(tracker->update(d.data(), d.size(), camera_at(), stamp + kFrame), Status::kNonFinite);
+  d = good(f);
+  std::swap(d[0].box.min, d[0].box.max);
+  EXPECT_EQ(tracker->update(d.data(), d.size(), camera_at(), stamp + kFrame),
+            Status::kInvalidArgument);
+  d = good(f);
+  EXPECT_EQ(tracker->update(d.data(), d.size(), camera_at(), stamp), Status::kTimeNotIncreasing);
+  EXPECT_EQ(tracker->update(d.data(), d.size(), camera_at(), stamp - kFrame),
+            Status::kTimeNotIncreasing);
+  EXPECT_EQ(tracker->update(nullptr, 2, camera_at(), stamp + kFrame), Status::kNullData);
+  std::vector<Detection> many(kMaxDetections + 1, detection({4.f, 0.f, 0.85f}));
+  EXPECT_EQ(tracker->update(many.data(), many.size(), camera_at(), stamp + kFrame),
+            Status::kCapacityExceeded);
+  Pose bad_pose = camera_at();
+  bad_pose.translation.x() = nan;
+  EXPECT_EQ(tracker->update(d.data(), d.size(), bad_pose, stamp + kFrame), Status::kNonFinite);
+  bad_pose = camera_at();
+  bad_pose.rotation.coeffs() << 0.f, 0.f, 0.f, 2.f;
+  EXPECT_EQ(tracker->update(d.data(), d.size(), bad_pose, stamp + kFrame),
+            Status::kNonUnitQuaternion);
+  expect_same_output(*tracker, *twin);
+
+  // And it carries on exactly like the twin that never saw the bad input.
+  for (; f < 40; ++f) {
+    const auto g = good(f);
+    stamp += kFrame;
+    ASSERT_EQ(tracker->update(g.data(), g.size(), camera_at(), stamp), Status::kOk);
+    ASSERT_EQ(twin->update(g.data(), g.size(), camera_at(), stamp), Status::kOk);
+  }
+  expect_same_output(*tracker, *twin);
+}
+
+TEST(TrackerRobustness, BadConfigIsRefused) {
+  Tracker tracker;
+  TrackerConfig c;
+  c.history_length = kMaxTrackHistory;  // k + 1 states would not fit
+  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  c = TrackerConfig{};
+  c.box_history_length = kMaxBoxHistory + 1;
+  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  c = TrackerConfig{};
+  c.overlap_threshold = std::nanf("");
+  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  c = TrackerConfig{};
+  c.continuity.displacement_frames = 20;  // needs n + 2 <= k + 1
+  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(TrackerConfig{}), Status::kOk);
+}
+
+TEST(TrackerRobustness, NoHeapAllocationPerFrame) {
+  auto tracker = make_tracker();
+  std::vector<Detection> dets;
+  for (std::size_t i = 0; i < kMaxDetections; ++i) {
+    dets.push_back(detection({4.f + 1.5f * (i % 8), 1.5f * (i / 8), 0.85f}));
+  }
+  Stamp stamp = 0;
+  test::AllocationGuard guard;
+  for (int f = 0; f < 60; ++f) {
+    for (std::size_t i = 0; i < dets.size(); i += 2) {
+      dets[i].box.min.y() += 0.03f;
+      dets[i].box.max.y() += 0.03f;
+    }
+    const std::size_t n = f % 10 == 5 ? dets.size() / 2 : dets.size();  // some coast
+    ASSERT_EQ(tracker->update(dets.data(), n, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  EXPECT_EQ(guard.allocations(), 0u);
+  EXPECT_EQ(tracker->size(), kMaxTracks);
+}
+
+}  // namespace
+}  // namespace dynamap
