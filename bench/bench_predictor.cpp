@@ -1,0 +1,151 @@
+// Prediction time per frame: 10 dynamic obstacles walking through a cluttered static map
+// (pillars and wall segments in a 12 m x 12 m room, real OccupancyMap), Markov predictor with
+// l = 5 and l = 15, and the linear baseline. One iteration = one frame = predict() for all 10.
+#include <benchmark/benchmark.h>
+
+#include <array>
+#include <cmath>
+#include <memory>
+#include <random>
+
+#include "dynamap/linear_predictor.hpp"
+#include "dynamap/markov_predictor.hpp"
+#include "dynamap/occupancy_map.hpp"
+#include "dynamap/prediction.hpp"
+
+namespace {
+
+using namespace dynamap;
+
+constexpr std::size_t kObstacles = 10;
+constexpr std::size_t kFrames = 64;  // replayed cyclically; 30 Hz
+
+struct Scene {
+  std::unique_ptr<OccupancyMap> map = std::make_unique<OccupancyMap>();
+  std::array<std::array<ObstacleState, kObstacles>, kFrames> frames{};
+  std::size_t occupied_voxels = 0;
+};
+
+void fill_box(OccupancyMap& map, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+              std::size_t* count) {
+  const float r = map.resolution();
+  for (float x = lo.x() + 0.5f * r; x < hi.x(); x += r) {
+    for (float y = lo.y() + 0.5f * r; y < hi.y(); y += r) {
+      for (float z = lo.z() + 0.5f * r; z < hi.z(); z += r) {
+        if (ok(map.set_log_odds(Eigen::Vector3f(x, y, z), 3.0f))) ++*count;
+      }
+    }
+  }
+}
+
+const Scene& scene() {
+  static const Scene* s = [] {
+    auto* sc = new Scene;
+    if (!ok(sc->map->init(OccupancyMapConfig{}))) std::abort();
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> pos(-6.0f, 6.0f);
+    std::uniform_real_distribution<float> ang(-3.14159f, 3.14159f);
+    std::uniform_real_distribution<float> spd(0.6f, 1.6f);
+    // Room walls, 60 pillars (0.3 m), 12 wall segments (1.5 m), all floor to 2.4 m.
+    const float h = 2.4f;
+    fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {6.1f, -6.0f, h}, &sc->occupied_voxels);
+    fill_box(*sc->map, {-6.1f, 6.0f, 0.f}, {6.1f, 6.1f, h}, &sc->occupied_voxels);
+    fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {-6.0f, 6.1f, h}, &sc->occupied_voxels);
+    fill_box(*sc->map, {6.0f, -6.1f, 0.f}, {6.1f, 6.1f, h}, &sc->occupied_voxels);
+    for (int i = 0; i < 60; ++i) {
+      const Eigen::Vector3f c(pos(rng), pos(rng), 0.f);
+      fill_box(*sc->map, c + Eigen::Vector3f(-0.15f, -0.15f, 0.f),
+               c + Eigen::Vector3f(0.15f, 0.15f, h), &sc->occupied_voxels);
+    }
+    for (int i = 0; i < 12; ++i) {
+      const Eigen::Vector3f c(pos(rng), pos(rng), 0.f);
+      const bool along_x = i % 2 == 0;
+      const Eigen::Vector3f half(along_x ? 0.75f : 0.05f, along_x ? 0.05f : 0.75f, 0.f);
+      fill_box(*sc->map, c - half, c + half + Eigen::Vector3f(0.f, 0.f, h), &sc->occupied_voxels);
+    }
+    // Walkers: straight lines at their speed, turning slightly every frame.
+    for (std::size_t k = 0; k < kObstacles; ++k) {
+      Eigen::Vector2f p(pos(rng) * 0.5f, pos(rng) * 0.5f);  // stay inside the room
+      float heading = ang(rng);
+      const float speed = spd(rng);
+      for (std::size_t f = 0; f < kFrames; ++f) {
+        ObstacleState& o = sc->frames[f][k];
+        o.track_id = static_cast<std::uint32_t>(k + 1);
+        o.position = Eigen::Vector3f(p.x(), p.y(), 0.9f);
+        o.velocity = speed * Eigen::Vector2f(std::cos(heading), std::sin(heading));
+        o.footprint_radius = 0.3f;
+        o.height = 1.8f;
+        p += o.velocity / 30.0f;
+        heading += 0.01f;
+      }
+    }
+    return sc;
+  }();
+  return *s;
+}
+
+// Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7).
+void BM_MarkovPredictor(benchmark::State& state) {
+  const Scene& sc = scene();
+  MarkovPredictorConfig cfg;
+  cfg.paths.num_paths = static_cast<std::size_t>(state.range(0));
+  cfg.clearance.max_lines = static_cast<std::size_t>(state.range(1));
+  auto mp = std::make_unique<MarkovPredictor>();
+  if (!ok(mp->init(cfg))) {
+    state.SkipWithError("init failed");
+    return;
+  }
+  const OccupancyQuery q = OccupancyQuery::of(*sc.map);
+  std::array<PathPrediction, kObstacles> out{};
+  std::size_t f = 0;
+  std::size_t failed = 0;
+  std::size_t predictions = 0;
+  for (auto _ : state) {
+    const Status s = mp->predict(sc.frames[f].data(), kObstacles, q, out.data());
+    benchmark::DoNotOptimize(s);
+    benchmark::DoNotOptimize(out.data());
+    for (const PathPrediction& p : out) failed += p.failed ? 1 : 0;
+    predictions += kObstacles;
+    f = (f + 1) % kFrames;
+  }
+  state.counters["fail_ratio"] =
+      predictions > 0 ? static_cast<double>(failed) / static_cast<double>(predictions) : 0.0;
+  state.counters["lines"] = static_cast<double>(clearance_lines(cfg.clearance, 0.3f));
+  state.counters["occupied_voxels"] = static_cast<double>(sc.occupied_voxels);
+}
+BENCHMARK(BM_MarkovPredictor)
+    ->ArgNames({"l", "max_lines"})
+    ->Args({5, 9})
+    ->Args({15, 9})
+    ->Args({5, 3})
+    ->Args({15, 3})
+    ->Unit(benchmark::kMicrosecond);
+
+void BM_LinearPredictor(benchmark::State& state) {
+  const Scene& sc = scene();
+  LinearPredictor lin;
+  if (!ok(lin.init(LinearPredictorConfig{}))) {
+    state.SkipWithError("init failed");
+    return;
+  }
+  const OccupancyQuery q = OccupancyQuery::of(*sc.map);
+  std::array<PathPrediction, kObstacles> out{};
+  std::size_t f = 0;
+  std::size_t failed = 0;
+  std::size_t predictions = 0;
+  for (auto _ : state) {
+    const Status s = lin.predict(sc.frames[f].data(), kObstacles, q, out.data());
+    benchmark::DoNotOptimize(s);
+    benchmark::DoNotOptimize(out.data());
+    for (const PathPrediction& p : out) failed += p.failed ? 1 : 0;
+    predictions += kObstacles;
+    f = (f + 1) % kFrames;
+  }
+  state.counters["fail_ratio"] =
+      predictions > 0 ? static_cast<double>(failed) / static_cast<double>(predictions) : 0.0;
+}
+BENCHMARK(BM_LinearPredictor)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,87 @@
+// MarkovPredictor: environment-aware trajectory prediction (DESIGN.md §4.6). Per track, a belief
+// P over the l library paths evolves as P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)), where
+// P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map.
+// All state is inline (fixed capacity); predict() never allocates and does bounded work.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "dynamap/constants.hpp"
+#include "dynamap/fixed_hash_map.hpp"
+#include "dynamap/path_library.hpp"
+#include "dynamap/prediction.hpp"
+#include "dynamap/status.hpp"
+
+namespace dynamap {
+
+/// Path family, footprint check and the Markov chain's parameters.
+struct MarkovPredictorConfig {
+  PathLibraryConfig paths{};
+  ClearanceConfig clearance{};
+  /// Standard deviations, in radians of heading change (converted to path indices with the
+  /// library's spacing 2*max_heading_change/(l-1)), so the chain behaves alike for any l.
+  /// The defaults are one path spacing for l = 5.
+  float sigma_init = 0.7853982f;   ///< of P_init around the straight path
+  float sigma_trans = 0.7853982f;  ///< of each P_trans row around its diagonal
+  float beta = 2.0f;  ///< 1/m: P_env = softmax(beta * free distance); 0 ignores the map
+};
+
+/// Slots of the per-track belief table (power of two, max load 7/8 >= kMaxTracks).
+inline constexpr std::size_t kPredictorTrackSlots = 64;
+static_assert(kPredictorTrackSlots - kPredictorTrackSlots / 8 >= kMaxTracks,
+              "belief table must hold every track");
+
+/// The Markov-chain predictor. Holds one belief vector per track id, forgets a track as soon as
+/// a frame arrives without it. Probabilities are kept in double and renormalised every frame.
+class MarkovPredictor {
+ public:
+  using Belief = std::array<double, kMaxPaths>;
+
+  /// kInvalidArgument (and nothing changes) on an out-of-range or non-finite parameter.
+  [[nodiscard]] Status init(const MarkovPredictorConfig& config) noexcept;
+
+  /// One frame: predicts obstacles[0..count) into out[0..count) (same order) against `map`.
+  /// Tracks not in this call are forgotten; new ids start from P_init (.) P_env.
+  /// Errors (state unchanged): kNotInitialized; kNullData (null arrays with count > 0, invalid
+  /// map view); kCapacityExceeded (count > kMaxTracks); kNonFinite / kInvalidArgument (an
+  /// obstacle's numbers, or a track id given twice).
+  /// Work: count x l x (samples - 1) x lines x height_levels segment queries at most.
+  [[nodiscard]] Status predict(const ObstacleState* obstacles, std::size_t count,
+                               const OccupancyQuery& map, PathPrediction* out) noexcept;
+
+  /// Forgets every track.
+  void reset() noexcept { beliefs_.clear(); }
+
+  const MarkovPredictorConfig& config() const noexcept { return config_; }
+  const PathLibrary& library() const noexcept { return library_; }
+  std::size_t num_paths() const noexcept { return library_.size(); }
+  /// A sigma of the config in path indices.
+  double sigma_in_indices(float sigma_rad) const noexcept;
+  /// P_init[i].
+  double initial(std::size_t i) const noexcept { return initial_[i]; }
+  /// P_trans[from][to]: probability of switching from path `from` to path `to` in one frame.
+  double transition(std::size_t from, std::size_t to) const noexcept { return trans_[from][to]; }
+  /// Number of tracks with a belief.
+  std::size_t tracked() const noexcept { return beliefs_.size(); }
+  /// Copies the belief of `track_id`; false when the track is unknown.
+  bool belief(std::uint32_t track_id, Belief* out) const noexcept;
+  /// Frames in which (P * P_trans) (.) P_env underflowed and the belief was restarted.
+  std::uint64_t underflow_restarts() const noexcept { return underflow_restarts_; }
+
+ private:
+  void predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
+                   PathPrediction* out) noexcept;
+
+  MarkovPredictorConfig config_{};
+  PathLibrary library_{};
+  bool initialised_ = false;
+  Belief initial_{};
+  std::array<Belief, kMaxPaths> trans_{};
+  FixedHashMap<std::uint32_t, Belief, kPredictorTrackSlots> beliefs_{};
+  std::array<PathSamples, kMaxPaths> paths_{};  // scratch: one obstacle's sampled paths
+  std::uint64_t underflow_restarts_ = 0;
+};
+
+}  // namespace dynamap

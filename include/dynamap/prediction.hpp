@@ -1,0 +1,113 @@
+// Types shared by the trajectory predictors (Markov and linear): the per-obstacle input, the
+// per-obstacle output, a non-owning collision-query view of a map, and the swept-footprint
+// free-distance check that both predictors use (so their failure definitions are identical).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "dynamap/constants.hpp"
+#include "dynamap/path_library.hpp"
+#include "dynamap/status.hpp"
+
+namespace dynamap {
+
+/// What the predictors need to know about one dynamic obstacle (from its track).
+struct ObstacleState {
+  std::uint32_t track_id = 0;
+  Eigen::Vector3f position = Eigen::Vector3f::Zero();  ///< box centre, map frame
+  Eigen::Vector2f velocity = Eigen::Vector2f::Zero();  ///< m/s in the map's x-y plane
+  float footprint_radius = 0.3f;                       ///< m, clearance kept from the static map
+  float height = 1.8f;                                 ///< m, vertical extent of the box
+};
+
+/// Non-owning, type-erased view of anything with OccupancyMap's
+/// `bool first_occupied_on_segment(a, b, Eigen::Vector3f* hit) const noexcept`: a context pointer
+/// plus a plain function pointer, so tests can pass a fake world and nothing is virtual.
+struct OccupancyQuery {
+  using SegmentFn = bool (*)(const void* context, const Eigen::Vector3f& a,
+                             const Eigen::Vector3f& b, Eigen::Vector3f* hit) noexcept;
+  const void* context = nullptr;
+  SegmentFn first_occupied_on_segment = nullptr;
+
+  bool valid() const noexcept { return context != nullptr && first_occupied_on_segment != nullptr; }
+  bool segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+               Eigen::Vector3f* hit) const noexcept {
+    return first_occupied_on_segment(context, a, b, hit);
+  }
+
+  /// View of `map`, which must outlive the view.
+  template <class Map>
+  static OccupancyQuery of(const Map& map) noexcept {
+    OccupancyQuery q;
+    q.context = &map;
+    q.first_occupied_on_segment = [](const void* ctx, const Eigen::Vector3f& a,
+                                     const Eigen::Vector3f& b, Eigen::Vector3f* hit) noexcept {
+      return static_cast<const Map*>(ctx)->first_occupied_on_segment(a, b, hit);
+    };
+    return q;
+  }
+};
+
+inline constexpr std::size_t kMaxClearanceLines = 9;
+inline constexpr std::size_t kMaxHeightLevels = 4;
+
+/// How the obstacle's swept footprint is checked against the map. The footprint is swept as
+/// polylines parallel to the path, evenly spread over [-radius, +radius] across it, at most
+/// `line_spacing` apart (the centre line alone for radius 0) and at most `max_lines` of them
+/// (wider spacing beyond that), at `height_levels` heights spread over the body above the ground
+/// clearance. Each polyline segment is one exact 3-D DDA query, so nothing is stepped over along
+/// the path; with line_spacing <= the map resolution nothing slips between lines either.
+struct ClearanceConfig {
+  float line_spacing = 0.1f;                   ///< m between swept lines (map resolution)
+  std::size_t max_lines = kMaxClearanceLines;  ///< 1..kMaxClearanceLines: caps the work
+  std::size_t height_levels = 1;               ///< 1..kMaxHeightLevels
+  float ground_clearance = 0.2f;  ///< m above the box bottom that is not checked (floor voxels)
+};
+
+/// Number of swept lines for a footprint of `radius` under `c`.
+std::size_t clearance_lines(const ClearanceConfig& c, float radius) noexcept;
+
+/// kInvalidArgument when a ClearanceConfig field is out of range.
+[[nodiscard]] Status validate(const ClearanceConfig& c) noexcept;
+/// kNonFinite / kInvalidArgument when an obstacle's numbers are unusable.
+[[nodiscard]] Status validate(const ObstacleState& o) noexcept;
+
+/// Result of sweeping one path.
+struct PathClearance {
+  float free_distance = 0.0f;  ///< m of arc length before the first hit; full length when free
+  bool free = true;            ///< no occupied voxel met over the whole path
+};
+
+/// Sweeps the obstacle's footprint along `path` (map top view, from PathLibrary::sample) and
+/// returns the arc length travelled before the first occupied voxel. Work: (samples - 1) x lines x
+/// height_levels segment queries (lines = clearance_lines()), stopping at the first segment that
+/// hits.
+PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
+                         const ObstacleState& obstacle, const ClearanceConfig& clearance) noexcept;
+
+/// One obstacle's prediction. For the linear predictor num_paths is 1.
+struct PathPrediction {
+  std::uint32_t track_id = 0;
+  std::size_t num_paths = 0;
+  std::size_t chosen = 0;                        ///< index of the most likely path
+  std::array<float, kMaxPaths> probability{};    ///< per path, sums to 1
+  std::array<float, kMaxPaths> free_distance{};  ///< per path, m (== path_length when free)
+  std::uint32_t free_mask = 0;                   ///< bit i set when path i is collision-free
+  float path_length = 0.0f;                      ///< m, arc length of every path
+  std::size_t num_samples = 0;
+  std::array<Eigen::Vector3f, kMaxPathSamples> position;  ///< chosen path, map frame
+  std::array<float, kMaxPathSamples> time{};              ///< s after the input's time
+  bool any_free = false;                                  ///< at least one path is collision-free
+  bool failed = false;  ///< the chosen path collides (always so when no path is free)
+
+  bool path_free(std::size_t i) const noexcept { return ((free_mask >> i) & 1u) != 0; }
+};
+
+/// Copies `path` (map top view) into out->position/time/num_samples at height z.
+void write_chosen_path(const PathSamples& path, float z, PathPrediction* out) noexcept;
+
+}  // namespace dynamap

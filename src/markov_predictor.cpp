@@ -1,0 +1,196 @@
+#include "dynamap/markov_predictor.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "dynamap/fixed_vector.hpp"
+
+namespace dynamap {
+
+namespace {
+
+using Belief = MarkovPredictor::Belief;
+
+/// Discrete Gaussian over indices 0..n-1 around `centre`, normalised. Exponents are taken
+/// relative to the nearest index so the largest weight is 1 and the sum never underflows.
+void discrete_gaussian(std::size_t n, double centre, double sigma, Belief* out) noexcept {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = static_cast<double>(i) - centre;
+    nearest = std::fmin(nearest, d * d);
+  }
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = static_cast<double>(i) - centre;
+    (*out)[i] = std::exp(-(d * d - nearest) / (2.0 * sigma * sigma));
+    sum += (*out)[i];
+  }
+  for (std::size_t i = 0; i < n; ++i) (*out)[i] /= sum;
+  for (std::size_t i = n; i < kMaxPaths; ++i) (*out)[i] = 0.0;
+}
+
+/// Scales v[0..n) to sum 1; false (v untouched) when the sum is zero, subnormal or not finite.
+bool normalise(std::size_t n, Belief* v) noexcept {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) sum += (*v)[i];
+  if (!std::isfinite(sum) || !(sum >= std::numeric_limits<double>::min())) return false;
+  const double inv = 1.0 / sum;
+  for (std::size_t i = 0; i < n; ++i) (*v)[i] *= inv;
+  return true;
+}
+
+bool positive_finite(float v) noexcept {
+  return std::isfinite(v) && v > 0.0f;
+}
+
+}  // namespace
+
+Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
+  PathLibrary lib;
+  if (!ok(lib.init(c.paths))) return Status::kInvalidArgument;
+  if (!ok(validate(c.clearance))) return Status::kInvalidArgument;
+  if (!positive_finite(c.sigma_init) || !positive_finite(c.sigma_trans)) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.beta) || c.beta < 0.0f) return Status::kInvalidArgument;
+
+  config_ = c;
+  library_ = lib;
+  const std::size_t l = library_.size();
+  const double s_init = sigma_in_indices(c.sigma_init);
+  const double s_trans = sigma_in_indices(c.sigma_trans);
+  discrete_gaussian(l, static_cast<double>(library_.center_index()), s_init, &initial_);
+  for (std::size_t i = 0; i < kMaxPaths; ++i) {
+    if (i < l) {
+      discrete_gaussian(l, static_cast<double>(i), s_trans, &trans_[i]);
+    } else {
+      trans_[i].fill(0.0);
+    }
+  }
+  beliefs_.clear();
+  underflow_restarts_ = 0;
+  initialised_ = true;
+  return Status::kOk;
+}
+
+double MarkovPredictor::sigma_in_indices(float sigma_rad) const noexcept {
+  const std::size_t l = library_.size();
+  const double spacing = l > 1 ? 2.0 * static_cast<double>(library_.config().max_heading_change) /
+                                     static_cast<double>(l - 1)
+                               : 0.0;
+  // All paths identical (l = 1 or no turning): the distributions are uniform anyway.
+  if (!(spacing > 0.0)) return 1e6;
+  return static_cast<double>(sigma_rad) / spacing;
+}
+
+bool MarkovPredictor::belief(std::uint32_t track_id, Belief* out) const noexcept {
+  const Belief* b = beliefs_.find(track_id);
+  if (b == nullptr) return false;
+  *out = *b;
+  return true;
+}
+
+Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t count,
+                                const OccupancyQuery& map, PathPrediction* out) noexcept {
+  if (!initialised_) return Status::kNotInitialized;
+  if (count > kMaxTracks) return Status::kCapacityExceeded;
+  if (count > 0 && (obstacles == nullptr || out == nullptr || !map.valid())) {
+    return Status::kNullData;
+  }
+  // Validate everything before touching any state.
+  for (std::size_t k = 0; k < count; ++k) {
+    const Status s = validate(obstacles[k]);
+    if (!ok(s)) return s;
+    for (std::size_t m = 0; m < k; ++m) {
+      if (obstacles[m].track_id == obstacles[k].track_id) return Status::kInvalidArgument;
+    }
+  }
+
+  // Forget tracks that are not in this frame first, so the table never holds more than count.
+  FixedVector<std::uint32_t, kPredictorTrackSlots> stale;
+  beliefs_.for_each([&](std::uint32_t id, const Belief&) {
+    for (std::size_t k = 0; k < count; ++k) {
+      if (obstacles[k].track_id == id) return;
+    }
+    (void)stale.push_back(id);  // cannot fail: stale holds at most the table's size
+  });
+  for (const std::uint32_t id : stale) beliefs_.erase(id);
+
+  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, &out[k]);
+  return Status::kOk;
+}
+
+void MarkovPredictor::predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
+                                  PathPrediction* out) noexcept {
+  const std::size_t l = library_.size();
+  const Eigen::Vector2f origin = obstacle.position.head<2>();
+
+  // Sample every path and sweep the footprint along it: Dist_i.
+  out->track_id = obstacle.track_id;
+  out->num_paths = l;
+  out->free_mask = 0;
+  out->any_free = false;
+  float max_dist = 0.0f;
+  for (std::size_t i = 0; i < l; ++i) {
+    library_.sample(i, origin, obstacle.velocity, &paths_[i]);
+    const PathClearance c = sweep_path(map, paths_[i], obstacle, config_.clearance);
+    out->free_distance[i] = c.free_distance;
+    if (c.free) {
+      out->free_mask |= 1u << i;
+      out->any_free = true;
+    }
+    max_dist = i == 0 ? c.free_distance : std::fmax(max_dist, c.free_distance);
+  }
+
+  // P_env = softmax(beta * Dist), shifted by the maximum so the largest term is exactly 1.
+  Belief env{};
+  for (std::size_t i = 0; i < l; ++i) {
+    env[i] = std::exp(static_cast<double>(config_.beta) *
+                      static_cast<double>(out->free_distance[i] - max_dist));
+  }
+  const bool env_ok = normalise(l, &env);  // sum >= 1 by construction
+  if (!env_ok) {
+    for (std::size_t i = 0; i < l; ++i) env[i] = 1.0 / static_cast<double>(l);
+  }
+
+  // Belief update. A new track starts from P_init (.) P_env.
+  bool inserted = false;
+  Belief* belief = beliefs_.find_or_insert(obstacle.track_id, inserted);
+  Belief post{};
+  if (inserted || belief == nullptr) {
+    for (std::size_t j = 0; j < l; ++j) post[j] = initial_[j] * env[j];
+  } else {
+    for (std::size_t j = 0; j < l; ++j) {
+      double pred = 0.0;
+      for (std::size_t i = 0; i < l; ++i) pred += (*belief)[i] * trans_[i][j];
+      post[j] = pred * env[j];
+    }
+  }
+  if (!normalise(l, &post)) {
+    // The old belief and the map disagree beyond double precision: restart from the prior.
+    ++underflow_restarts_;
+    for (std::size_t j = 0; j < l; ++j) post[j] = initial_[j] * env[j];
+    if (!normalise(l, &post)) post = env;
+  }
+  if (belief != nullptr) *belief = post;  // nullptr only if the table were full (it cannot be)
+
+  // Most likely path; exact ties go to the one nearer the straight path.
+  const float centre = library_.center_index();
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < l; ++i) {
+    const bool better = post[i] > post[best];
+    const bool tie_nearer =
+        post[i] == post[best] &&
+        std::fabs(static_cast<float>(i) - centre) < std::fabs(static_cast<float>(best) - centre);
+    if (better || tie_nearer) best = i;
+  }
+  for (std::size_t i = 0; i < kMaxPaths; ++i) {
+    out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;
+    if (i >= l) out->free_distance[i] = 0.0f;
+  }
+  out->chosen = best;
+  out->failed = !out->path_free(best);
+  write_chosen_path(paths_[best], obstacle.position.z(), out);
+}
+
+}  // namespace dynamap

@@ -1,0 +1,100 @@
+#include "dynamap/prediction.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dynamap {
+
+Status validate(const ClearanceConfig& c) noexcept {
+  if (c.max_lines < 1 || c.max_lines > kMaxClearanceLines) return Status::kInvalidArgument;
+  if (!std::isfinite(c.line_spacing) || c.line_spacing <= 0.0f) return Status::kInvalidArgument;
+  if (c.height_levels < 1 || c.height_levels > kMaxHeightLevels) return Status::kInvalidArgument;
+  if (!std::isfinite(c.ground_clearance) || c.ground_clearance < 0.0f) {
+    return Status::kInvalidArgument;
+  }
+  return Status::kOk;
+}
+
+Status validate(const ObstacleState& o) noexcept {
+  if (!o.position.allFinite() || !o.velocity.allFinite() || !std::isfinite(o.footprint_radius) ||
+      !std::isfinite(o.height)) {
+    return Status::kNonFinite;
+  }
+  if (o.footprint_radius < 0.0f || o.height < 0.0f) return Status::kInvalidArgument;
+  return Status::kOk;
+}
+
+std::size_t clearance_lines(const ClearanceConfig& c, float radius) noexcept {
+  if (!(radius > 0.0f) || !(c.line_spacing > 0.0f)) return 1;
+  const float gaps = std::ceil(2.0f * radius / c.line_spacing - 1e-3f);
+  const float cap = static_cast<float>(std::min(c.max_lines, kMaxClearanceLines));
+  return static_cast<std::size_t>(std::clamp(gaps + 1.0f, 1.0f, cap));
+}
+
+PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
+                         const ObstacleState& obstacle, const ClearanceConfig& clearance) noexcept {
+  // Lateral offsets of the swept lines and the heights they run at.
+  std::array<float, kMaxClearanceLines> offset{};
+  const float r = obstacle.footprint_radius;
+  const std::size_t lines = clearance_lines(clearance, r);
+  for (std::size_t j = 0; j < lines; ++j) {
+    offset[j] =
+        lines == 1 ? 0.0f : -r + 2.0f * r * static_cast<float>(j) / static_cast<float>(lines - 1);
+  }
+  std::array<float, kMaxHeightLevels> level{};
+  const float lo = obstacle.position.z() - 0.5f * obstacle.height + clearance.ground_clearance;
+  const float hi = obstacle.position.z() + 0.5f * obstacle.height;
+  std::size_t levels = std::min(clearance.height_levels, kMaxHeightLevels);
+  if (hi <= lo) {
+    levels = 1;
+    level[0] = obstacle.position.z();
+  } else {
+    const float step = (hi - lo) / static_cast<float>(levels);
+    for (std::size_t h = 0; h < levels; ++h) level[h] = lo + (static_cast<float>(h) + 0.5f) * step;
+  }
+
+  PathClearance result;
+  const std::size_t n = std::min(path.count, kMaxPathSamples);
+  if (n == 0) return result;
+  result.free_distance = path.arc_length[n - 1];
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const Eigen::Vector2f n0(-path.tangent[k].y(), path.tangent[k].x());
+    const Eigen::Vector2f n1(-path.tangent[k + 1].y(), path.tangent[k + 1].x());
+    float first = 2.0f;  // fraction of this segment at the first hit; > 1 means none
+    for (std::size_t h = 0; h < levels; ++h) {
+      for (std::size_t j = 0; j < lines; ++j) {
+        const Eigen::Vector2f a2 = path.position[k] + offset[j] * n0;
+        const Eigen::Vector2f b2 = path.position[k + 1] + offset[j] * n1;
+        const Eigen::Vector3f a(a2.x(), a2.y(), level[h]);
+        const Eigen::Vector3f b(b2.x(), b2.y(), level[h]);
+        Eigen::Vector3f hit;
+        if (!map.segment(a, b, &hit)) continue;
+        const Eigen::Vector2f ab = b2 - a2;
+        const float len2 = ab.squaredNorm();
+        float f = 0.0f;
+        if (len2 > 1e-12f) f = (hit.head<2>() - a2).dot(ab) / len2;
+        if (!(f > 0.0f)) f = 0.0f;  // also catches NaN from a degenerate hit
+        first = std::min(first, std::min(f, 1.0f));
+      }
+    }
+    if (first <= 1.0f) {
+      result.free = false;
+      result.free_distance =
+          path.arc_length[k] + first * (path.arc_length[k + 1] - path.arc_length[k]);
+      return result;
+    }
+  }
+  return result;
+}
+
+void write_chosen_path(const PathSamples& path, float z, PathPrediction* out) noexcept {
+  const std::size_t n = std::min(path.count, kMaxPathSamples);
+  out->num_samples = n;
+  out->path_length = n > 0 ? path.arc_length[n - 1] : 0.0f;
+  for (std::size_t k = 0; k < n; ++k) {
+    out->position[k] = Eigen::Vector3f(path.position[k].x(), path.position[k].y(), z);
+    out->time[k] = path.time[k];
+  }
+}
+
+}  // namespace dynamap

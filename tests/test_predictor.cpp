@@ -1,0 +1,682 @@
+// Tests of the trajectory predictors: path library geometry, Markov maths, scenes (free space,
+// wall with a side opening, L-shaped corridor) on a fake box world and on the real OccupancyMap,
+// numerical safety, track bookkeeping, bad input, bounded work and zero allocations.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <random>
+
+#include "alloc_guard.hpp"
+#include "dynamap/fixed_vector.hpp"
+#include "dynamap/linear_predictor.hpp"
+#include "dynamap/markov_predictor.hpp"
+#include "dynamap/occupancy_map.hpp"
+#include "dynamap/path_library.hpp"
+#include "dynamap/prediction.hpp"
+#include "dynamap/types.hpp"
+
+namespace dynamap {
+namespace {
+
+constexpr float kPiF = 3.14159265358979f;
+
+// ---------------------------------------------------------------------------------------------
+// Worlds. Both expose add_box() (solid obstacle) and query() (the predictor's view).
+
+/// Exact fake world: a list of solid boxes, segment query by slab intersection.
+class BoxWorld {
+ public:
+  void add_box(const Box3& b) { ASSERT_EQ(boxes_.push_back(b), Status::kOk); }
+  OccupancyQuery query() const { return OccupancyQuery::of(*this); }
+
+  bool first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                 Eigen::Vector3f* hit) const noexcept {
+    ++queries;
+    float best = 2.0f;
+    for (const Box3& box : boxes_) {
+      float t0 = 0.0f;
+      float t1 = 1.0f;
+      bool miss = false;
+      for (int ax = 0; ax < 3 && !miss; ++ax) {
+        const float d = b[ax] - a[ax];
+        if (std::fabs(d) < 1e-9f) {
+          miss = a[ax] < box.min[ax] || a[ax] > box.max[ax];
+          continue;
+        }
+        float ta = (box.min[ax] - a[ax]) / d;
+        float tb = (box.max[ax] - a[ax]) / d;
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+        miss = t0 > t1;
+      }
+      if (!miss) best = std::min(best, t0);
+    }
+    if (best > 1.0f) return false;
+    *hit = a + best * (b - a);
+    return true;
+  }
+
+  mutable std::size_t queries = 0;  // segment queries answered, for the bounded-work test
+
+ private:
+  FixedVector<Box3, 64> boxes_;
+};
+
+/// The real OccupancyMap with every voxel whose centre lies in a box set occupied.
+class MapWorld {
+ public:
+  MapWorld() : map_(std::make_unique<OccupancyMap>()) {
+    EXPECT_EQ(map_->init(OccupancyMapConfig{}), Status::kOk);
+  }
+  void add_box(const Box3& b) {
+    const float res = map_->resolution();
+    for (float x = b.min.x() + 0.5f * res; x < b.max.x(); x += res) {
+      for (float y = b.min.y() + 0.5f * res; y < b.max.y(); y += res) {
+        for (float z = b.min.z() + 0.5f * res; z < b.max.z(); z += res) {
+          ASSERT_EQ(map_->set_log_odds(Eigen::Vector3f(x, y, z), 3.0f), Status::kOk);
+        }
+      }
+    }
+  }
+  OccupancyQuery query() const { return OccupancyQuery::of(*map_); }
+  const OccupancyMap& map() const { return *map_; }
+
+ private:
+  std::unique_ptr<OccupancyMap> map_;
+};
+
+/// A wall of thickness 0.1 m from the floor to 2.5 m between two x-y corners.
+Box3 wall(float x0, float y0, float x1, float y1) {
+  return Box3{Eigen::Vector3f(x0, y0, 0.0f), Eigen::Vector3f(x1, y1, 2.5f)};
+}
+
+ObstacleState walker(std::uint32_t id, float x, float y, float vx, float vy) {
+  ObstacleState o;
+  o.track_id = id;
+  o.position = Eigen::Vector3f(x, y, 0.9f);
+  o.velocity = Eigen::Vector2f(vx, vy);
+  o.footprint_radius = 0.3f;
+  o.height = 1.8f;
+  return o;
+}
+
+MarkovPredictorConfig markov_config(std::size_t l) {
+  MarkovPredictorConfig c;
+  c.paths.num_paths = l;
+  return c;
+}
+
+void expect_valid_distribution(const PathPrediction& p) {
+  float sum = 0.0f;
+  for (std::size_t i = 0; i < p.num_paths; ++i) {
+    EXPECT_TRUE(std::isfinite(p.probability[i]));
+    EXPECT_GE(p.probability[i], 0.0f);
+    sum += p.probability[i];
+  }
+  EXPECT_NEAR(sum, 1.0f, 1e-5f);
+  EXPECT_LT(p.chosen, p.num_paths);
+  for (std::size_t i = 0; i < p.num_paths; ++i) {
+    EXPECT_LE(p.probability[i], p.probability[p.chosen]);
+  }
+}
+
+// Scene 1: walls on the right and ahead; the left wall ends at x = 0.2, leaving an opening.
+template <class World>
+void build_wall_with_left_opening(World& w) {
+  w.add_box(wall(-3.0f, -1.1f, 2.1f, -1.0f));  // right
+  w.add_box(wall(2.0f, -1.1f, 2.1f, 3.5f));    // ahead
+  w.add_box(wall(-3.0f, 1.0f, 0.2f, 1.1f));    // left, up to the opening
+}
+
+// Scene 2: corridor along +x (|y| < 1) that turns to +y (left) or -y (right, mirror) for
+// 2 < x < 4. `side` = +1 for a left turn, -1 for a right turn.
+template <class World>
+void build_l_corridor(World& w, float side) {
+  auto mirrored = [side](float x0, float y0, float x1, float y1) {
+    return side > 0.0f ? wall(x0, y0, x1, y1) : wall(x0, -y1, x1, -y0);
+  };
+  w.add_box(mirrored(-5.0f, -1.1f, 4.1f, -1.0f));  // outer wall of the corridor (turn side away)
+  w.add_box(mirrored(-5.0f, 1.0f, 2.0f, 1.1f));    // inner wall, ends at the corner
+  w.add_box(mirrored(1.9f, 1.0f, 2.0f, 6.0f));     // inner wall of the new leg
+  w.add_box(mirrored(4.0f, -1.1f, 4.1f, 6.0f));    // end wall / outer wall of the new leg
+}
+
+// ---------------------------------------------------------------------------------------------
+// PathLibrary
+
+TEST(PathLibrary, HorizonFollowsTheDesign) {
+  PathLibrary lib;
+  ASSERT_EQ(lib.init(PathLibraryConfig{}), Status::kOk);
+  const PathHorizon fast = lib.horizon(1.5f);
+  EXPECT_FLOAT_EQ(fast.length, 3.0f);
+  EXPECT_FLOAT_EQ(fast.duration, 2.0f);
+  EXPECT_EQ(fast.samples, 21u);  // 0.1 s apart
+  const PathHorizon slow = lib.horizon(0.05f);
+  EXPECT_FLOAT_EQ(slow.duration, 2.0f);
+  EXPECT_FLOAT_EQ(slow.length, 0.1f);
+  const PathHorizon crawl = lib.horizon(0.11f);  // 27 s: capped sample count, wider spacing
+  EXPECT_NEAR(crawl.duration, 3.0f / 0.11f, 1e-3f);
+  EXPECT_EQ(crawl.samples, kMaxPathSamples);
+  const PathHorizon still = lib.horizon(0.0f);
+  EXPECT_FLOAT_EQ(still.length, 0.0f);
+  EXPECT_GE(still.samples, 2u);
+}
+
+TEST(PathLibrary, OrderedLeftStraightRightAndMirrorSymmetric) {
+  for (std::size_t l : {1u, 2u, 5u, 15u, 16u}) {
+    PathLibraryConfig c;
+    c.num_paths = l;
+    PathLibrary lib;
+    ASSERT_EQ(lib.init(c), Status::kOk);
+    PathSamples a;
+    PathSamples b;
+    float prev_y = INFINITY;
+    for (std::size_t i = 0; i < l; ++i) {
+      lib.sample_local(i, 1.2f, &a);
+      ASSERT_GE(a.count, 2u);
+      ASSERT_LE(a.count, kMaxPathSamples);
+      const float y_end = a.position[a.count - 1].y();
+      EXPECT_LT(y_end, prev_y) << "l=" << l << " i=" << i;  // strictly left to right
+      prev_y = y_end;
+      lib.sample_local(l - 1 - i, 1.2f, &b);
+      for (std::size_t k = 0; k < a.count; ++k) {
+        EXPECT_NEAR(a.position[k].x(), b.position[k].x(), 1e-4f);
+        EXPECT_NEAR(a.position[k].y(), -b.position[k].y(), 1e-4f);
+      }
+      EXPECT_NEAR(lib.heading_change(i), -lib.heading_change(l - 1 - i), 1e-6f);
+    }
+    if (l % 2 == 1) {
+      lib.sample_local(l / 2, 1.2f, &a);
+      for (std::size_t k = 0; k < a.count; ++k) EXPECT_NEAR(a.position[k].y(), 0.0f, 1e-6f);
+      EXPECT_FLOAT_EQ(lib.center_index(), static_cast<float>(l / 2));
+    }
+  }
+}
+
+TEST(PathLibrary, SamplesAreConsistentArcs) {
+  PathLibraryConfig c;
+  c.num_paths = 7;
+  PathLibrary lib;
+  ASSERT_EQ(lib.init(c), Status::kOk);
+  const float speed = 1.3f;
+  const PathHorizon h = lib.horizon(speed);
+  for (std::size_t i = 0; i < lib.size(); ++i) {
+    PathSamples p;
+    lib.sample_local(i, speed, &p);
+    ASSERT_EQ(p.count, h.samples);
+    EXPECT_EQ(p.position[0], Eigen::Vector2f::Zero());
+    EXPECT_NEAR(p.arc_length[p.count - 1], h.length, 1e-4f);
+    EXPECT_NEAR(p.time[p.count - 1], h.duration, 1e-4f);
+    float polyline = 0.0f;
+    for (std::size_t k = 0; k < p.count; ++k) {
+      EXPECT_NEAR(p.tangent[k].norm(), 1.0f, 1e-4f);
+      EXPECT_NEAR(p.arc_length[k], speed * p.time[k], 1e-4f);  // travelled at the current speed
+      if (k > 0) {
+        EXPECT_LE(p.time[k] - p.time[k - 1], c.sample_interval + 1e-5f);
+        polyline += (p.position[k] - p.position[k - 1]).norm();
+      }
+    }
+    // Chords are at most slightly shorter than the arc.
+    EXPECT_LE(polyline, h.length + 1e-4f);
+    EXPECT_GT(polyline, 0.99f * h.length);
+    // Final heading is the path's heading change.
+    const float final_heading = std::atan2(p.tangent[p.count - 1].y(), p.tangent[p.count - 1].x());
+    EXPECT_NEAR(final_heading, lib.heading_change(i), 1e-3f);
+  }
+  EXPECT_NEAR(lib.heading_change(0), c.max_heading_change, 1e-6f);
+}
+
+TEST(PathLibrary, MapFrameFollowsVelocity) {
+  PathLibrary lib;
+  ASSERT_EQ(lib.init(PathLibraryConfig{}), Status::kOk);
+  PathSamples p;
+  lib.sample(2, Eigen::Vector2f(1.0f, 2.0f), Eigen::Vector2f(0.0f, 1.5f), &p);  // straight, +y
+  EXPECT_NEAR(p.position[p.count - 1].x(), 1.0f, 1e-5f);
+  EXPECT_NEAR(p.position[p.count - 1].y(), 5.0f, 1e-4f);
+  lib.sample(0, Eigen::Vector2f(1.0f, 2.0f), Eigen::Vector2f(0.0f, 1.5f), &p);  // left of +y is -x
+  EXPECT_LT(p.position[p.count - 1].x(), 0.0f);
+}
+
+TEST(PathLibrary, RejectsBadConfig) {
+  PathLibrary lib;
+  PathLibraryConfig c;
+  c.num_paths = 0;
+  EXPECT_EQ(lib.init(c), Status::kInvalidArgument);
+  c.num_paths = kMaxPaths + 1;
+  EXPECT_EQ(lib.init(c), Status::kInvalidArgument);
+  c = PathLibraryConfig{};
+  c.sample_interval = 0.0f;
+  EXPECT_EQ(lib.init(c), Status::kInvalidArgument);
+  c = PathLibraryConfig{};
+  c.turn_curvature = NAN;
+  EXPECT_EQ(lib.init(c), Status::kInvalidArgument);
+  c = PathLibraryConfig{};
+  c.max_heading_change = 4.0f;
+  EXPECT_EQ(lib.init(c), Status::kInvalidArgument);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Markov maths
+
+TEST(MarkovPredictor, InitialAndTransitionAreStochasticGaussians) {
+  for (std::size_t l : {1u, 4u, 5u, 15u, 16u}) {
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(markov_config(l)), Status::kOk);
+    double init_sum = 0.0;
+    for (std::size_t i = 0; i < l; ++i) {
+      init_sum += mp.initial(i);
+      EXPECT_NEAR(mp.initial(i), mp.initial(l - 1 - i), 1e-12);  // centred on straight
+      double row = 0.0;
+      for (std::size_t j = 0; j < l; ++j) {
+        EXPECT_GE(mp.transition(i, j), 0.0);
+        EXPECT_LE(mp.transition(i, j), mp.transition(i, i));  // peak on the diagonal
+        row += mp.transition(i, j);
+      }
+      EXPECT_NEAR(row, 1.0, 1e-12) << "l=" << l << " row " << i;
+    }
+    EXPECT_NEAR(init_sum, 1.0, 1e-12);
+    const std::size_t c = (l - 1) / 2;
+    for (std::size_t i = 0; i < l; ++i) EXPECT_LE(mp.initial(i), mp.initial(c) + 1e-15);
+  }
+  // Even tiny sigmas stay normalised (no 0/0).
+  MarkovPredictorConfig c = markov_config(4);
+  c.sigma_init = 1e-4f;
+  c.sigma_trans = 1e-4f;
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(c), Status::kOk);
+  EXPECT_NEAR(mp.initial(1) + mp.initial(2), 1.0, 1e-12);
+  EXPECT_NEAR(mp.transition(3, 3), 1.0, 1e-12);
+}
+
+TEST(MarkovPredictor, RejectsBadConfig) {
+  MarkovPredictor mp;
+  MarkovPredictorConfig c;
+  c.sigma_trans = 0.0f;
+  EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
+  c = MarkovPredictorConfig{};
+  c.beta = -1.0f;
+  EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
+  c = MarkovPredictorConfig{};
+  c.clearance.max_lines = 0;
+  EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
+  c = MarkovPredictorConfig{};
+  c.paths.num_paths = 17;
+  EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
+  BoxWorld w;
+  const ObstacleState o = walker(1, 0, 0, 1, 0);
+  PathPrediction out;
+  EXPECT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kNotInitialized);
+}
+
+TEST(MarkovPredictor, UpdateIsTheDocumentedFormula) {
+  BoxWorld w;
+  build_wall_with_left_opening(w);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+  const double beta = mp.config().beta;
+  auto env_of = [&](const PathPrediction& p) {
+    MarkovPredictor::Belief e{};
+    double sum = 0.0;
+    for (std::size_t i = 0; i < 5; ++i) {
+      e[i] = std::exp(beta * p.free_distance[i]);
+      sum += e[i];
+    }
+    for (std::size_t i = 0; i < 5; ++i) e[i] /= sum;
+    return e;
+  };
+  PathPrediction out;
+  ObstacleState o = walker(7, -0.3f, 0.0f, 1.0f, 0.0f);
+  ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+  MarkovPredictor::Belief b{};
+  ASSERT_TRUE(mp.belief(7, &b));
+  // New track: normalise(P_init (.) P_env).
+  MarkovPredictor::Belief env = env_of(out);
+  double sum = 0.0;
+  MarkovPredictor::Belief want{};
+  for (std::size_t i = 0; i < 5; ++i) sum += want[i] = mp.initial(i) * env[i];
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_NEAR(b[i], want[i] / sum, 1e-6);
+  // Next frame: normalise((P * P_trans) (.) P_env).
+  const MarkovPredictor::Belief prev = b;
+  o.position.x() += 0.1f;
+  ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+  ASSERT_TRUE(mp.belief(7, &b));
+  env = env_of(out);
+  sum = 0.0;
+  for (std::size_t j = 0; j < 5; ++j) {
+    double pred = 0.0;
+    for (std::size_t i = 0; i < 5; ++i) pred += prev[i] * mp.transition(i, j);
+    sum += want[j] = pred * env[j];
+  }
+  for (std::size_t j = 0; j < 5; ++j) {
+    EXPECT_NEAR(b[j], want[j] / sum, 1e-6);
+    EXPECT_NEAR(out.probability[j], want[j] / sum, 1e-6);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes, on both worlds.
+
+template <class World>
+class PredictorScenes : public ::testing::Test {};
+using Worlds = ::testing::Types<BoxWorld, MapWorld>;
+TYPED_TEST_SUITE(PredictorScenes, Worlds);
+
+TYPED_TEST(PredictorScenes, FreeSpaceStraightWalkerGetsStraightPath) {
+  TypeParam w;
+  for (std::size_t l : {1u, 5u, 15u}) {
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(markov_config(l)), Status::kOk);
+    PathPrediction out;
+    for (int f = 0; f < 10; ++f) {
+      const ObstacleState o = walker(3, 0.12f * static_cast<float>(f), 1.0f, 1.2f, 0.0f);
+      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+      expect_valid_distribution(out);
+      EXPECT_EQ(out.chosen, l / 2);
+      EXPECT_FALSE(out.failed);
+      EXPECT_TRUE(out.any_free);
+      EXPECT_EQ(out.free_mask, (1u << l) - 1u);
+      // Chosen path in the map frame: a straight line along the velocity, timed at its speed.
+      ASSERT_EQ(out.num_samples, 26u);  // 3 m at 1.2 m/s = 2.5 s, 0.1 s apart
+      for (std::size_t k = 0; k < out.num_samples; ++k) {
+        EXPECT_NEAR(out.position[k].x(), o.position.x() + 1.2f * out.time[k], 1e-4f);
+        EXPECT_NEAR(out.position[k].y(), 1.0f, 1e-5f);
+        EXPECT_FLOAT_EQ(out.position[k].z(), 0.9f);
+      }
+      EXPECT_NEAR(out.time[out.num_samples - 1], 2.5f, 1e-4f);
+    }
+  }
+}
+
+TYPED_TEST(PredictorScenes, WallAheadOpeningLeftTurnsLeftWhileLinearFails) {
+  TypeParam w;
+  build_wall_with_left_opening(w);
+  for (std::size_t l : {5u, 15u}) {
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(markov_config(l)), Status::kOk);
+    LinearPredictor lin;
+    ASSERT_EQ(lin.init(LinearPredictorConfig{}), Status::kOk);
+    PathPrediction out;
+    PathPrediction lin_out;
+    int first_win = -1;  // first frame in which the free sharp-left turn is chosen
+    for (int f = 0; f < 6; ++f) {
+      const ObstacleState o = walker(11, -0.3f + 0.1f * static_cast<float>(f), 0.0f, 1.0f, 0.0f);
+      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+      ASSERT_EQ(lin.predict(&o, 1, w.query(), &lin_out), Status::kOk);
+      expect_valid_distribution(out);
+      EXPECT_FALSE(out.path_free(l / 2)) << "the straight path meets the wall ahead";
+      EXPECT_TRUE(lin_out.failed);
+      EXPECT_LT(lin_out.free_distance[0], 2.5f);
+      const bool win = mp.library().heading_change(out.chosen) > 1.2f && !out.failed;
+      if (win && first_win < 0) first_win = f;
+      if (first_win >= 0) {
+        EXPECT_TRUE(win) << "frame " << f << " l=" << l;  // and it stays
+      }
+    }
+    ASSERT_GE(first_win, 0) << "l=" << l;
+    EXPECT_LE(first_win, 3) << "l=" << l;  // "within a few frames": at most the fourth
+    // The chosen path really goes through the opening: it ends left of the left wall line.
+    EXPECT_GT(out.position[out.num_samples - 1].y(), 1.2f);
+  }
+}
+
+TYPED_TEST(PredictorScenes, LCorridorPicksTheMatchingTurn) {
+  for (float side : {1.0f, -1.0f}) {
+    TypeParam w;
+    build_l_corridor(w, side);
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+    PathPrediction out;
+    std::size_t frames_checked = 0;
+    for (int f = 0; f < 16; ++f) {
+      const float x = 0.0f + 0.12f * static_cast<float>(f);  // 1.2 m/s at 10 Hz towards the corner
+      const ObstacleState o = walker(5, x, 0.0f, 1.2f, 0.0f);
+      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+      expect_valid_distribution(out);
+      if (x < 1.5f) continue;  // corner not yet reachable by the library's turns
+      ++frames_checked;
+      const float turn = mp.library().heading_change(out.chosen);
+      EXPECT_GT(side * turn, 0.7f) << "side " << side << " x " << x;  // 45 or 90 deg that way
+      // Free, or (on the voxelised map) grazing a wall only in the last few centimetres.
+      EXPECT_GT(out.free_distance[out.chosen], 0.95f * out.path_length)
+          << "side " << side << " x " << x;
+      // The predicted path ends in the new leg of the corridor.
+      const Eigen::Vector3f end = out.position[out.num_samples - 1];
+      EXPECT_GT(end.x(), 2.0f);
+      EXPECT_LT(end.x(), 4.0f);
+      EXPECT_GT(side * end.y(), 1.0f);
+    }
+    EXPECT_GE(frames_checked, 3u);
+    EXPECT_FALSE(out.failed) << "side " << side;  // at the corner the chosen turn is fully free
+  }
+}
+
+TYPED_TEST(PredictorScenes, ZeroHeapAllocations) {
+  TypeParam w;
+  build_wall_with_left_opening(w);
+  auto mp = std::make_unique<MarkovPredictor>();
+  ASSERT_EQ(mp->init(markov_config(15)), Status::kOk);
+  auto lin = std::make_unique<LinearPredictor>();
+  ASSERT_EQ(lin->init(LinearPredictorConfig{}), Status::kOk);
+  constexpr std::size_t kTracks = 10;
+  std::array<ObstacleState, kTracks> in{};
+  std::array<PathPrediction, kTracks> out{};
+  for (std::size_t k = 0; k < kTracks; ++k) {
+    in[k] = walker(static_cast<std::uint32_t>(100 + k), -0.5f + 0.05f * static_cast<float>(k),
+                   0.02f * static_cast<float>(k), 1.0f, 0.1f);
+  }
+  const OccupancyQuery q = w.query();
+  test::AllocationGuard guard;
+  for (int f = 0; f < 5; ++f) {
+    EXPECT_EQ(mp->predict(in.data(), kTracks - static_cast<std::size_t>(f), q, out.data()),
+              Status::kOk);
+    EXPECT_EQ(lin->predict(in.data(), kTracks, q, out.data()), Status::kOk);
+  }
+  EXPECT_EQ(guard.allocations(), 0u);
+  EXPECT_EQ(guard.deallocations(), 0u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Numerical safety, bookkeeping, bad input, bounded work.
+
+TEST(MarkovPredictor, ProbabilitiesStayFiniteAndNormalisedUnderStress) {
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<float> u(-4.0f, 4.0f);
+  std::uniform_real_distribution<float> v(-2.0f, 2.0f);
+  const float betas[] = {0.0f, 2.0f, 1e4f};
+  const float sigmas[] = {0.04f, 30.0f};
+  for (std::size_t l : {1u, 5u, 15u}) {
+    for (float beta : betas) {
+      for (float sigma : sigmas) {
+        BoxWorld w;
+        for (int b = 0; b < 8; ++b) {
+          const Eigen::Vector3f c(u(rng), u(rng), 1.0f);
+          w.add_box(Box3::from_center_size(c, Eigen::Vector3f(0.3f, 0.3f, 2.0f)));
+        }
+        MarkovPredictorConfig cfg = markov_config(l);
+        cfg.beta = beta;
+        cfg.sigma_init = sigma;
+        cfg.sigma_trans = sigma;
+        MarkovPredictor mp;
+        ASSERT_EQ(mp.init(cfg), Status::kOk);
+        std::array<ObstacleState, 3> in{};
+        std::array<PathPrediction, 3> out{};
+        for (int f = 0; f < 6; ++f) {
+          for (std::size_t k = 0; k < in.size(); ++k) {
+            // Teleporting, turning obstacles: the belief must survive anything.
+            in[k] = walker(static_cast<std::uint32_t>(k), u(rng), u(rng), v(rng), v(rng));
+          }
+          ASSERT_EQ(mp.predict(in.data(), in.size(), w.query(), out.data()), Status::kOk);
+          for (const PathPrediction& p : out) {
+            expect_valid_distribution(p);
+            EXPECT_EQ(p.failed, !p.path_free(p.chosen));
+            EXPECT_EQ(p.any_free, p.free_mask != 0);
+            for (std::size_t i = 0; i < l; ++i) {
+              EXPECT_GE(p.free_distance[i], 0.0f);
+              EXPECT_LE(p.free_distance[i], p.path_length + 1e-4f);
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(MarkovPredictor, UnderflowRestartsFromThePrior) {
+  // Belief locked on the sharpest left turn, then only the sharpest right turn is free; with a
+  // huge beta and a near-identity P_trans every product underflows to zero in double.
+  MarkovPredictorConfig cfg = markov_config(5);
+  cfg.beta = 1e4f;
+  cfg.sigma_trans = 0.04f;  // 0.05 path spacings
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(cfg), Status::kOk);
+  BoxWorld left_open;  // everything but the left 90-degree turn blocked
+  left_open.add_box(wall(1.6f, -3.0f, 1.7f, 3.0f));
+  left_open.add_box(wall(-1.0f, -0.6f, 1.6f, -0.5f));
+  BoxWorld right_open;
+  right_open.add_box(wall(1.6f, -3.0f, 1.7f, 3.0f));
+  right_open.add_box(wall(-1.0f, 0.5f, 1.6f, 0.6f));
+  const ObstacleState o = walker(1, 0.0f, 0.0f, 1.0f, 0.0f);
+  PathPrediction out;
+  for (int f = 0; f < 3; ++f) ASSERT_EQ(mp.predict(&o, 1, left_open.query(), &out), Status::kOk);
+  EXPECT_EQ(out.chosen, 0u);
+  EXPECT_EQ(mp.underflow_restarts(), 0u);
+  ASSERT_EQ(mp.predict(&o, 1, right_open.query(), &out), Status::kOk);
+  EXPECT_GE(mp.underflow_restarts(), 1u);
+  expect_valid_distribution(out);
+  EXPECT_EQ(out.chosen, 4u);
+  EXPECT_FALSE(out.failed);
+}
+
+TEST(MarkovPredictor, TracksAreForgottenWhenTheyDisappear) {
+  BoxWorld w;
+  build_wall_with_left_opening(w);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+  std::array<ObstacleState, 3> in = {walker(1, 0, 0, 1, 0), walker(2, 0, 0.5f, 1, 0),
+                                     walker(3, -1, 0, 1, 0)};
+  std::array<PathPrediction, 3> out{};
+  ASSERT_EQ(mp.predict(in.data(), 3, w.query(), out.data()), Status::kOk);
+  for (int f = 0; f < 3; ++f)
+    ASSERT_EQ(mp.predict(in.data(), 3, w.query(), out.data()), Status::kOk);
+  EXPECT_EQ(mp.tracked(), 3u);
+  MarkovPredictor::Belief settled{};
+  ASSERT_TRUE(mp.belief(1, &settled));
+  // Track 2 disappears.
+  std::array<ObstacleState, 2> two = {in[0], in[2]};
+  ASSERT_EQ(mp.predict(two.data(), 2, w.query(), out.data()), Status::kOk);
+  EXPECT_EQ(mp.tracked(), 2u);
+  MarkovPredictor::Belief b{};
+  EXPECT_FALSE(mp.belief(2, &b));
+  EXPECT_TRUE(mp.belief(1, &b));
+  EXPECT_EQ(out[0].track_id, 1u);
+  EXPECT_EQ(out[1].track_id, 3u);
+  // Track 2 comes back: it restarts from P_init (.) P_env, like track 1 did in its first frame.
+  MarkovPredictor fresh;
+  ASSERT_EQ(fresh.init(markov_config(5)), Status::kOk);
+  PathPrediction first{};
+  ASSERT_EQ(fresh.predict(&in[1], 1, w.query(), &first), Status::kOk);
+  ASSERT_EQ(mp.predict(in.data(), 3, w.query(), out.data()), Status::kOk);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_FLOAT_EQ(out[1].probability[i], first.probability[i]);
+  // An empty frame forgets everything.
+  ASSERT_EQ(mp.predict(nullptr, 0, w.query(), nullptr), Status::kOk);
+  EXPECT_EQ(mp.tracked(), 0u);
+}
+
+TEST(MarkovPredictor, BadInputChangesNothing) {
+  BoxWorld w;
+  build_wall_with_left_opening(w);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+  std::array<ObstacleState, 2> in = {walker(1, 0, 0, 1, 0), walker(2, -1, 0, 1, 0)};
+  std::array<PathPrediction, kMaxTracks + 1> out{};
+  ASSERT_EQ(mp.predict(in.data(), 2, w.query(), out.data()), Status::kOk);
+  MarkovPredictor::Belief before1{};
+  MarkovPredictor::Belief before2{};
+  ASSERT_TRUE(mp.belief(1, &before1));
+  ASSERT_TRUE(mp.belief(2, &before2));
+  out[0].track_id = 999;  // sentinel: errors must not write output either
+
+  std::array<ObstacleState, 2> bad = in;
+  bad[1].position.x() = NAN;
+  EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kNonFinite);
+  bad = in;
+  bad[0].velocity.y() = INFINITY;
+  EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kNonFinite);
+  bad = in;
+  bad[1].footprint_radius = -0.1f;
+  EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kInvalidArgument);
+  bad = in;
+  bad[1].track_id = bad[0].track_id;
+  EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kInvalidArgument);
+  EXPECT_EQ(mp.predict(nullptr, 2, w.query(), out.data()), Status::kNullData);
+  EXPECT_EQ(mp.predict(in.data(), 2, OccupancyQuery{}, out.data()), Status::kNullData);
+  std::array<ObstacleState, kMaxTracks + 1> many{};
+  for (std::size_t k = 0; k < many.size(); ++k) many[k].track_id = static_cast<std::uint32_t>(k);
+  EXPECT_EQ(mp.predict(many.data(), many.size(), w.query(), out.data()), Status::kCapacityExceeded);
+
+  EXPECT_EQ(out[0].track_id, 999u);
+  EXPECT_EQ(mp.tracked(), 2u);
+  MarkovPredictor::Belief after{};
+  ASSERT_TRUE(mp.belief(1, &after));
+  EXPECT_EQ(after, before1);
+  ASSERT_TRUE(mp.belief(2, &after));
+  EXPECT_EQ(after, before2);
+
+  LinearPredictor lin;
+  EXPECT_EQ(lin.predict(in.data(), 2, w.query(), out.data()), Status::kNotInitialized);
+  ASSERT_EQ(lin.init(LinearPredictorConfig{}), Status::kOk);
+  bad = in;
+  bad[0].height = NAN;
+  EXPECT_EQ(lin.predict(bad.data(), 2, w.query(), out.data()), Status::kNonFinite);
+  EXPECT_EQ(out[0].track_id, 999u);
+}
+
+TEST(MarkovPredictor, WorkIsBoundedByPathsTimesSamples) {
+  BoxWorld w;  // empty: no early exit, the worst case
+  for (std::size_t l : {1u, 5u, 15u}) {
+    MarkovPredictorConfig cfg = markov_config(l);
+    cfg.clearance.line_spacing = 0.3f;  // 3 lines for the 0.3 m footprint
+    cfg.clearance.height_levels = 2;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(cfg), Status::kOk);
+    for (float speed : {0.05f, 0.11f, 1.2f, 5.0f}) {
+      const ObstacleState o = walker(1, 0, 0, speed, 0);
+      PathPrediction out;
+      w.queries = 0;
+      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+      const std::size_t samples = mp.library().horizon(speed).samples;
+      EXPECT_EQ(w.queries, l * (samples - 1) * 3 * 2);
+      EXPECT_LE(w.queries, l * (kMaxPathSamples - 1) * 3 * 2);
+      EXPECT_EQ(clearance_lines(cfg.clearance, o.footprint_radius), 3u);
+    }
+  }
+}
+
+TEST(MarkovPredictor, FootprintClearanceCountsNearMisses) {
+  // A thin pillar 0.15-0.25 m beside the straight line: the centre line misses it, a 0.3 m
+  // footprint does not (7 lines 0.1 m apart); with radius 0.1 the path is free.
+  BoxWorld w;
+  w.add_box(Box3{Eigen::Vector3f(1.0f, 0.15f, 0.0f), Eigen::Vector3f(1.1f, 0.25f, 2.0f)});
+  EXPECT_EQ(clearance_lines(ClearanceConfig{}, 0.3f), 7u);
+  EXPECT_EQ(clearance_lines(ClearanceConfig{}, 0.1f), 3u);
+  EXPECT_EQ(clearance_lines(ClearanceConfig{}, 0.0f), 1u);
+  EXPECT_EQ(clearance_lines(ClearanceConfig{}, 2.0f), kMaxClearanceLines);
+  LinearPredictor lin;
+  ASSERT_EQ(lin.init(LinearPredictorConfig{}), Status::kOk);
+  ObstacleState o = walker(1, 0, 0, 1.5f, 0);
+  PathPrediction out;
+  ASSERT_EQ(lin.predict(&o, 1, w.query(), &out), Status::kOk);
+  EXPECT_TRUE(out.failed);
+  EXPECT_NEAR(out.free_distance[0], 1.0f, 0.16f);  // within one sample spacing of the pillar
+  o.footprint_radius = 0.1f;
+  ASSERT_EQ(lin.predict(&o, 1, w.query(), &out), Status::kOk);
+  EXPECT_FALSE(out.failed);
+  EXPECT_FLOAT_EQ(out.free_distance[0], 3.0f);
+  EXPECT_FLOAT_EQ(out.probability[0], 1.0f);
+}
+
+}  // namespace
+}  // namespace dynamap
