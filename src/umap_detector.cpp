@@ -10,7 +10,9 @@
 namespace dynamap {
 
 namespace {
-bool finite_positive(float x) noexcept { return std::isfinite(x) && x > 0.f; }
+bool finite_positive(float x) noexcept {
+  return std::isfinite(x) && x > 0.f;
+}
 
 bool config_valid(const UMapDetectorConfig& c) noexcept {
   if (c.bins < 1 || c.bins > kMaxUMapBins) return false;
@@ -93,7 +95,8 @@ Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
   for (int b = 0; b < binning_.bins; ++b) {
     const float z = 0.5f * (binning_.bin_near_depth(b) + binning_.bin_far_depth(b));
     const float metric = z > 0.f ? std::ceil(config_.min_point_height * cam.fy / z) : 65535.f;
-    const float t = std::min(65535.f, std::max(static_cast<float>(config_.count_threshold), metric));
+    const float t =
+        std::min(65535.f, std::max(static_cast<float>(config_.count_threshold), metric));
     thresholds_[static_cast<std::size_t>(b)] = static_cast<std::uint16_t>(t);
   }
   extract_segments(depth.width);
@@ -108,7 +111,8 @@ Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
     }
     const int width_px = g.u1 - g.u0 + 1;
     const float near = binning_.bin_near_depth(g.b0);
-    if (static_cast<float>(width_px) >= config_.max_width_fraction * static_cast<float>(depth.width) ||
+    if (static_cast<float>(width_px) >=
+            config_.max_width_fraction * static_cast<float>(depth.width) ||
         static_cast<float>(width_px) * near / cam.fx > config_.max_width) {
       ++stats_.rejected_size;
       continue;
@@ -181,9 +185,9 @@ void UMapDetector::extract_segments(int width) noexcept {
         continue;
       }
       const auto idx = static_cast<std::int16_t>(segment_count_);
-      segments_[segment_count_++] = Segment{static_cast<std::int16_t>(start),
-                                            static_cast<std::int16_t>(u - 1),
-                                            static_cast<std::int16_t>(b), idx};
+      segments_[segment_count_++] =
+          Segment{static_cast<std::int16_t>(start), static_cast<std::int16_t>(u - 1),
+                  static_cast<std::int16_t>(b), idx};
     }
   }
   bin_first_segment_[static_cast<std::size_t>(bins)] = static_cast<int>(segment_count_);
@@ -257,9 +261,8 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
   // Depth band [near, near + band_factor * extent] in raw units (integer compares per pixel).
   const std::uint32_t raw_lo = binning_.bin_first_raw(g.b0);
   const std::uint32_t ext = binning_.bin_first_raw(g.b1 + 1) - raw_lo;
-  const std::uint32_t band =
-      std::max<std::uint32_t>(1u, static_cast<std::uint32_t>(config_.band_factor *
-                                                             static_cast<float>(ext)));
+  const std::uint32_t band = std::max<std::uint32_t>(
+      1u, static_cast<std::uint32_t>(config_.band_factor * static_cast<float>(ext)));
   const std::uint32_t raw_hi = std::min<std::uint32_t>(65535u, raw_lo + band - 1u);
 
   // Pass 1: in-band pixels per image row over the group's columns (all reads inside the image).
@@ -287,33 +290,55 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
   }
   if (best_start < 0 || best_end - best_start + 1 < config_.min_run_rows) return false;
 
-  // Pass 2: tight box of the in-band pixels' back-projections (pixel footprints, so a pixel
-  // covers [u - 0.5, u + 0.5]); x and y are scaled by fx, fy at the end.
-  float xs_min = std::numeric_limits<float>::max(), xs_max = std::numeric_limits<float>::lowest();
-  float ys_min = xs_min, ys_max = xs_max;
-  std::uint32_t d_min = 0xFFFFFFFFu, d_max = 0;
-  int pu0 = u1, pu1 = u0;
+  // Pass 2: mean in-band depth per column and per row. Each column (row) of the box is placed
+  // at its own mean depth: exact for front and side faces, and depth noise averages out instead
+  // of stretching the box by the extreme pixels.
+  for (int u = u0; u <= u1; ++u) {
+    col_depth_sum_[static_cast<std::size_t>(u)] = 0;
+    col_count_[static_cast<std::size_t>(u)] = 0;
+  }
   for (int v = best_start; v <= best_end; ++v) {
     const std::uint16_t* row = depth.row(v);
-    const float vt = static_cast<float>(v) - 0.5f - cam.cy;
+    std::uint32_t row_sum = 0;
     for (int u = u0; u <= u1; ++u) {
       const std::uint32_t d = row[u];
-      if (d < raw_lo || d > raw_hi) continue;
-      const float z = static_cast<float>(d) * cam.depth_scale;
-      const float ut = static_cast<float>(u) - 0.5f - cam.cx;
-      xs_min = std::min(xs_min, ut * z);
-      xs_max = std::max(xs_max, (ut + 1.f) * z);
-      ys_min = std::min(ys_min, vt * z);
-      ys_max = std::max(ys_max, (vt + 1.f) * z);
-      d_min = std::min(d_min, d);
-      d_max = std::max(d_max, d);
-      pu0 = std::min(pu0, u);
-      pu1 = std::max(pu1, u);
+      const bool in = d >= raw_lo && d <= raw_hi;
+      const std::uint32_t dd = in ? d : 0u;
+      col_depth_sum_[static_cast<std::size_t>(u)] += dd;
+      col_count_[static_cast<std::size_t>(u)] =
+          static_cast<std::uint16_t>(col_count_[static_cast<std::size_t>(u)] + (in ? 1 : 0));
+      row_sum += dd;
     }
+    row_depth_sum_[static_cast<std::size_t>(v)] = row_sum;
   }
-  if (d_max == 0) return false;
-  const float z_near = static_cast<float>(d_min) * cam.depth_scale;
-  const float z_far = static_cast<float>(d_max) * cam.depth_scale;
+  // Tight box over pixel footprints ([u - 0.5, u + 0.5]); x, y scaled by fx, fy at the end.
+  const float big = std::numeric_limits<float>::max();
+  float xs_min = big, xs_max = -big, ys_min = big, ys_max = -big, z_near = big, z_far = -big;
+  int pu0 = u1, pu1 = u0;
+  for (int u = u0; u <= u1; ++u) {
+    const std::uint16_t n = col_count_[static_cast<std::size_t>(u)];
+    if (n == 0) continue;
+    const float z = static_cast<float>(col_depth_sum_[static_cast<std::size_t>(u)]) /
+                    static_cast<float>(n) * cam.depth_scale;
+    const float ut = static_cast<float>(u) - 0.5f - cam.cx;
+    xs_min = std::min(xs_min, ut * z);
+    xs_max = std::max(xs_max, (ut + 1.f) * z);
+    z_near = std::min(z_near, z);
+    z_far = std::max(z_far, z);
+    pu0 = std::min(pu0, u);
+    pu1 = std::max(pu1, u);
+  }
+  if (pu1 < pu0) return false;
+  for (int v = best_start; v <= best_end; ++v) {
+    const std::uint16_t n = row_hits_[static_cast<std::size_t>(v)];
+    if (n == 0) continue;
+    const float z = static_cast<float>(row_depth_sum_[static_cast<std::size_t>(v)]) /
+                    static_cast<float>(n) * cam.depth_scale;
+    const float vt = static_cast<float>(v) - 0.5f - cam.cy;
+    ys_min = std::min(ys_min, vt * z);
+    ys_max = std::max(ys_max, (vt + 1.f) * z);
+  }
+  if (ys_max < ys_min) return false;
   box_cam->min = Eigen::Vector3f(xs_min / cam.fx, ys_min / cam.fy, z_near);
   box_cam->max = Eigen::Vector3f(xs_max / cam.fx, ys_max / cam.fy, z_far);
   *ibox = ImageBox{pu0, best_start, pu1, best_end};

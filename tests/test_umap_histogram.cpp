@@ -57,7 +57,7 @@ TEST(UMapBinning, RejectsBadRanges) {
   EXPECT_EQ(make_umap_binning(0.f, 8.f, 0.f, 10, &b), Status::kInvalidArgument);
   EXPECT_EQ(make_umap_binning(0.f, 8.f, 0.001f, 0, &b), Status::kInvalidArgument);
   EXPECT_EQ(make_umap_binning(0.f, 8.f, 0.001f, kMaxUMapBins + 1, &b), Status::kInvalidArgument);
-  EXPECT_EQ(make_umap_binning(0.f, 100.f, 0.001f, 10, &b), Status::kInvalidArgument);  // > 65535
+  EXPECT_EQ(make_umap_binning(0.f, 100.f, 0.001f, 10, &b), Status::kInvalidArgument);   // > 65535
   EXPECT_EQ(make_umap_binning(0.f, 0.05f, 0.001f, 120, &b), Status::kInvalidArgument);  // 50 < 120
   EXPECT_EQ(make_umap_binning(0.f, NAN, 0.001f, 10, &b), Status::kInvalidArgument);
   EXPECT_EQ(make_umap_binning(0.f, 8.f, 0.001f, 10, nullptr), Status::kNullData);
@@ -135,10 +135,9 @@ TEST(UMapHistogram, ScalarMatchesIndependentCount) {
 TEST(UMapHistogram, FastIdenticalOnRandomImagesAndOddWidths) {
   std::printf("fast path: %s\n", umap_histogram_fast_name());
   std::mt19937 rng(12345);
-  const UMapBinning binnings[] = {binning_or_die(0.01f, 8.f, 0.001f, 120),
-                                  binning_or_die(0.3f, 5.f, 1.f / 5000.f, 128),
-                                  binning_or_die(0.f, 65.535f, 0.001f, 1),
-                                  binning_or_die(1.f, 1.2f, 0.001f, 33)};
+  const UMapBinning binnings[] = {
+      binning_or_die(0.01f, 8.f, 0.001f, 120), binning_or_die(0.3f, 5.f, 1.f / 5000.f, 128),
+      binning_or_die(0.f, 65.535f, 0.001f, 1), binning_or_die(1.f, 1.2f, 0.001f, 33)};
   for (int width : {1, 2, 3, 7, 8, 9, 15, 16, 17, 63, 64, 65, 71, 127, 129, 639, 640}) {
     const int height = 1 + static_cast<int>(rng() % 19);
     const int stride = width + static_cast<int>(rng() % 3);  // padded rows too
@@ -175,9 +174,11 @@ TEST(UMapHistogram, FastIdenticalOnEdgeValues) {
       for (int u = 0; u < width; ++u) {
         std::vector<int> expect(static_cast<std::size_t>(b.bins + 1), 0);
         for (int v = 0; v < height; ++v) {
-          ++expect[static_cast<std::size_t>(b.bin_of(img[static_cast<std::size_t>(v * width + u)]))];
+          ++expect[static_cast<std::size_t>(
+              b.bin_of(img[static_cast<std::size_t>(v * width + u)]))];
         }
-        for (int k = 0; k <= b.bins; ++k) ASSERT_EQ(h.at(k, u), expect[static_cast<std::size_t>(k)]);
+        for (int k = 0; k <= b.bins; ++k)
+          ASSERT_EQ(h.at(k, u), expect[static_cast<std::size_t>(k)]);
       }
     }
     EXPECT_EQ(b.bin_of(0), b.bins);

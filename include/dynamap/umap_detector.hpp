@@ -25,9 +25,9 @@ inline constexpr int kMaxUMapSmoothingRadius = 4;
 /// Parameters of the U-map detector; defaults in docs/umap_detector.md.
 struct UMapDetectorConfig {
   // U map
-  int bins = 120;          ///< depth bins over [d_min, d_max] (<= kMaxUMapBins)
-  float d_min = 0.1f;      ///< metres; nearer depths are not counted
-  float d_max = 8.0f;      ///< metres; farther depths are not counted
+  int bins = 120;            ///< depth bins over [d_min, d_max] (<= kMaxUMapBins)
+  float d_min = 0.1f;        ///< metres; nearer depths are not counted
+  float d_max = 8.0f;        ///< metres; farther depths are not counted
   int smoothing_radius = 0;  ///< cell test uses the sum over bins [b-r, b+r] (0 = off)
   // "points": a cell is a point when its (smoothed) count reaches
   //   max(count_threshold, min_point_height * fy / depth_of_bin)
@@ -61,8 +61,8 @@ struct UMapDetectorStats {
   std::size_t segments_dropped = 0;  ///< over kMaxUMapSegments
   std::size_t groups = 0;
   std::size_t rejected_area = 0;
-  std::size_t rejected_size = 0;    ///< wall-like (too wide / too tall)
-  std::size_t rejected_height = 0;  ///< no run of rows found in the depth band
+  std::size_t rejected_size = 0;       ///< wall-like (too wide / too tall)
+  std::size_t rejected_height = 0;     ///< no run of rows found in the depth band
   std::size_t candidates_dropped = 0;  ///< over max_candidates
   std::size_t detections = 0;
   std::size_t detections_dropped = 0;  ///< over max_detections / output capacity
@@ -116,12 +116,17 @@ class UMapDetector {
   alignas(kCacheLine) std::array<std::uint16_t, kMaxImageWidth> row_sum_{};
   std::array<std::uint16_t, kMaxUMapBins> thresholds_{};
   std::array<Segment, kMaxUMapSegments> segments_{};
-  std::array<int, kMaxUMapBins + 1> bin_first_segment_{};  // segments of bin b: [first[b], first[b+1])
+  std::array<int, kMaxUMapBins + 1>
+      bin_first_segment_{};  // segments of bin b: [first[b], first[b+1])
   std::size_t segment_count_ = 0;
   std::array<std::int16_t, kMaxUMapSegments> group_of_root_{};
   std::array<Group, kMaxUMapSegments> groups_{};
   std::size_t group_count_ = 0;
   std::array<std::uint16_t, kMaxImageHeight> row_hits_{};
+  // Per-column / per-row sums of in-band raw depths for the box measurement.
+  std::array<std::uint32_t, kMaxImageWidth> col_depth_sum_{};
+  std::array<std::uint16_t, kMaxImageWidth> col_count_{};
+  std::array<std::uint32_t, kMaxImageHeight> row_depth_sum_{};
 };
 
 }  // namespace dynamap

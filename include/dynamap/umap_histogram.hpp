@@ -66,8 +66,8 @@ struct UMapBinning {
 /// the segment scan that follows.
 struct UMapBuffer {
   std::uint16_t* counts = nullptr;
-  int stride = 0;     ///< elements between bin rows, >= image width
-  int capacity = 0;   ///< total elements available at counts
+  int stride = 0;    ///< elements between bin rows, >= image width
+  int capacity = 0;  ///< total elements available at counts
 };
 
 /// Scalar reference: overwrites rows [0, bins] x columns [0, width) of `out`.

@@ -40,15 +40,17 @@ struct SyntheticImage {
   }
 };
 
-/// Ray (origin 0, direction dir with dir.z = 1) vs box: the entry depth, or +inf on a miss.
-inline float ray_box_depth(const Eigen::Vector3f& dir, const SceneBox& b) {
+/// Ray (origin 0, direction (dx, dy, 1)) vs box: the entry depth, or +inf on a miss.
+inline float ray_box_depth(float dx, float dy, const SceneBox& b) {
+  const float dir[3] = {dx, dy, 1.f};
   float t0 = 0.f, t1 = 1e30f;
   for (int a = 0; a < 3; ++a) {
+    const float lo = b.min[a], hi = b.max[a];
     if (std::fabs(dir[a]) < 1e-12f) {
-      if (0.f < b.min[a] || 0.f > b.max[a]) return 1e30f;
+      if (0.f < lo || 0.f > hi) return 1e30f;
       continue;
     }
-    float ta = b.min[a] / dir[a], tb = b.max[a] / dir[a];
+    float ta = lo / dir[a], tb = hi / dir[a];
     if (ta > tb) std::swap(ta, tb);
     t0 = std::max(t0, ta);
     t1 = std::min(t1, tb);
@@ -63,21 +65,19 @@ inline SyntheticImage render_depth(const SyntheticScene& scene, const CameraIntr
   img.width = cam.width;
   img.height = cam.height;
   img.stride = cam.width + pad;
-  img.pixels.assign(static_cast<std::size_t>(img.stride) * static_cast<std::size_t>(img.height),
-                    0);
+  img.pixels.assign(static_cast<std::size_t>(img.stride) * static_cast<std::size_t>(img.height), 0);
   for (int v = 0; v < cam.height; ++v) {
     for (int u = 0; u < cam.width; ++u) {
-      const Eigen::Vector3f dir((static_cast<float>(u) - cam.cx) / cam.fx,
-                                (static_cast<float>(v) - cam.cy) / cam.fy, 1.f);
+      const float dx = (static_cast<float>(u) - cam.cx) / cam.fx;
+      const float dy = (static_cast<float>(v) - cam.cy) / cam.fy;
       float t = 1e30f;
-      for (const SceneBox& b : scene.boxes) t = std::min(t, ray_box_depth(dir, b));
+      for (const SceneBox& b : scene.boxes) t = std::min(t, ray_box_depth(dx, dy, b));
       if (scene.wall_z > 0.f) t = std::min(t, scene.wall_z);
-      if (scene.floor_y > 0.f && dir.y() > 0.f) t = std::min(t, scene.floor_y / dir.y());
+      if (scene.floor_y > 0.f && dy > 0.f) t = std::min(t, scene.floor_y / dy);
       if (t >= 1e29f) continue;
       const float raw = std::round(t / cam.depth_scale);
       img.pixels[static_cast<std::size_t>(v) * static_cast<std::size_t>(img.stride) +
-                 static_cast<std::size_t>(u)] =
-          static_cast<std::uint16_t>(std::min(raw, 65535.f));
+                 static_cast<std::size_t>(u)] = static_cast<std::uint16_t>(std::min(raw, 65535.f));
     }
   }
   return img;
