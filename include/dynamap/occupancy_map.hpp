@@ -1,0 +1,328 @@
+// OccupancyMap: log-odds occupancy on a hashed voxel grid with a budget fixed at compile time.
+// Blocks of 8x8x8 voxels live in an inline pool located through an open-addressing table, so
+// the object never allocates after construction and can be a static global (it is ~9 MB: never
+// put one on the stack). See docs/occupancy_map.md for the layout, update rule and eviction.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "dynamap/constants.hpp"
+#include "dynamap/fixed_hash_map.hpp"
+#include "dynamap/status.hpp"
+#include "dynamap/types.hpp"
+
+namespace dynamap {
+
+/// Compile-time pool capacity in blocks (8^3 voxels each).
+inline constexpr std::size_t kMaxMapBlocks = 4096;
+/// Compile-time capacity of the per-frame ray list: a 640x480 image sampled with stride 2.
+inline constexpr std::size_t kMaxRaysPerFrame =
+    static_cast<std::size_t>(kMaxImageWidth) * static_cast<std::size_t>(kMaxImageHeight) / 4;
+
+/// What the map knows about a voxel: never observed, free, or occupied.
+enum class Occupancy : std::uint8_t { kUnknown = 0, kFree, kOccupied };
+
+/// Parameters of OccupancyMap; defaults are the paper's (DESIGN.md §4.1).
+/// Probabilities are turned into log-odds at init(); init() rejects inconsistent values.
+struct OccupancyMapConfig {
+  float resolution = 0.1f;  ///< voxel edge (m)
+  float prob_hit = 0.70f, prob_miss = 0.35f, prob_min = 0.12f, prob_max = 0.97f,
+        prob_occupied = 0.80f;
+  float min_depth = 0.5f;  ///< closer measurements are dropped entirely
+  float max_depth = 5.0f;  ///< 0 or deeper -> free-space ray truncated at this depth (camera z)
+  int pixel_margin = 2, pixel_stride = 2;
+  Eigen::Vector3f local_half_extent{5.f, 5.f, 3.f};    ///< only this region around the camera is
+                                                       ///< updated (rays are clipped to it)
+  std::size_t max_blocks = kMaxMapBlocks;              ///< runtime capacity <= kMaxMapBlocks
+  std::size_t max_rays_per_frame = kMaxRaysPerFrame;   ///< work cap, <= kMaxRaysPerFrame
+  std::size_t max_voxel_visits_per_frame = 1'000'000;  ///< work cap on DDA steps per frame
+  /// Cast one representative ray per distinct end voxel per frame (the other pixels ending in
+  /// the same voxel would carve nearly the same voxels). false casts every sampled pixel.
+  bool merge_rays_per_voxel = true;
+};
+
+/// Counters of the last integrate() call (work done, work dropped by caps, pool churn).
+struct IntegrationStats {
+  std::size_t rays = 0;           ///< rays traversed (after merging)
+  std::size_t rays_dropped = 0;   ///< rays not (fully) traversed: ray/visit cap or pool full
+  std::size_t voxel_visits = 0;   ///< DDA steps
+  std::size_t voxel_updates = 0;  ///< voxels whose log-odds changed (hits + misses)
+  std::size_t blocks_allocated = 0;
+  std::size_t blocks_evicted = 0;
+  // Added beyond the shared contract:
+  std::size_t pixels_sampled = 0;   ///< sampled pixels that produced a ray (hit or free)
+  std::size_t rays_merged = 0;      ///< pixels whose ray was merged into another one
+  std::size_t hits = 0;             ///< hit updates applied
+  std::size_t updates_dropped = 0;  ///< voxel updates lost because no block could be allocated
+};
+
+/// The static occupancy map. Single-threaded: integrate() and clear_box() mutate; the const
+/// queries may run concurrently with each other but not with a mutation.
+class OccupancyMap {
+ public:
+  using VoxelKey = std::uint64_t;  ///< packed signed integer voxel indices (i, j, k), 21 bits each
+
+  static constexpr int kBlockBits = 3;
+  static constexpr int kBlockEdge = 1 << kBlockBits;  ///< voxels per block edge
+  static constexpr std::size_t kBlockVoxels =
+      static_cast<std::size_t>(kBlockEdge * kBlockEdge * kBlockEdge);
+  /// Hash table slots: power of two, load <= kMaxMapBlocks / kBlockTableCapacity = 0.5.
+  static constexpr std::size_t kBlockTableCapacity = 2 * kMaxMapBlocks;
+  /// Voxel indices representable in a key: [-kKeyHalfRange, kKeyHalfRange).
+  static constexpr std::int32_t kKeyHalfRange = 1 << 20;
+  /// Upper bound on DDA steps of one segment query (longer segments are cut there).
+  static constexpr std::size_t kMaxSegmentVisits = 1 << 16;
+  /// Log-odds are stored as int16 in units of 1/kLogOddsScale.
+  static constexpr float kLogOddsScale = 1000.f;
+
+  OccupancyMap() noexcept;
+
+  /// Validates `config`, empties the map. kInvalidArgument (map unchanged) when inconsistent.
+  [[nodiscard]] Status init(const OccupancyMapConfig& config) noexcept;
+
+  /// Integrates one depth frame taken at T_map_camera. On any bad input returns its Status and
+  /// changes nothing. Never fails for lack of space: far blocks are evicted instead.
+  [[nodiscard]] Status integrate(const DepthView& depth, const CameraIntrinsics& cam,
+                                 const Pose& T_map_camera, Stamp stamp) noexcept;
+
+  Occupancy state(const Eigen::Vector3f& p) const noexcept;
+  Occupancy state(VoxelKey key) const noexcept;
+  float log_odds(const Eigen::Vector3f& p) const noexcept;  ///< 0 when unknown
+  bool is_occupied(const Eigen::Vector3f& p) const noexcept;
+  /// First occupied voxel on the segment a->b (3-D DDA); fills *hit (voxel centre) when found.
+  bool first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                 Eigen::Vector3f* hit) const noexcept;
+
+  /// Visits occupied voxels whose centre lies inside `box`; examines at most `max_voxels`
+  /// (each block position looked up and each voxel read counts one).
+  /// f(VoxelKey, const Eigen::Vector3f& centre). Returns the number of voxels visited.
+  template <class F>
+  std::size_t for_each_occupied_in_box(const Box3& box, std::size_t max_voxels, F&& f) const;
+  /// Sets occupied voxels whose centre lies inside `box` to free (clamp minimum);
+  /// on_cleared(VoxelKey, centre) for each changed voxel. Same budget as above.
+  /// Returns the number of voxels changed.
+  template <class F>
+  std::size_t clear_box(const Box3& box, std::size_t max_voxels, F&& on_cleared);
+
+  /// Sets one voxel's log-odds (clamped). kCapacityExceeded when its block cannot be allocated.
+  [[nodiscard]] Status set_log_odds(const Eigen::Vector3f& p, float log_odds) noexcept;
+  VoxelKey key_of(const Eigen::Vector3f& p) const noexcept;  ///< clamps to the key range
+  Eigen::Vector3f center_of(VoxelKey key) const noexcept;
+  float resolution() const noexcept { return resolution_; }
+  float occupied_log_odds() const noexcept { return dequantize(q_occupied_); }  ///< threshold
+  /// Whole footprint of the object (pool, table, scratch): sizeof, independent of contents.
+  std::size_t memory_bytes() const noexcept { return sizeof(*this); }
+  const IntegrationStats& last_stats() const noexcept { return stats_; }
+  /// Hash of all allocated blocks' voxel log-odds (order independent), for "unchanged" tests.
+  std::uint64_t checksum() const noexcept;
+  /// Whole map, tools only: f(VoxelKey, const Eigen::Vector3f& centre) for each occupied voxel.
+  template <class F>
+  void for_each_occupied(F&& f) const;
+
+  // Added beyond the shared contract.
+  const OccupancyMapConfig& config() const noexcept { return config_; }
+  bool initialized() const noexcept { return initialized_; }
+  std::size_t blocks_in_use() const noexcept { return blocks_in_use_; }
+  std::size_t total_blocks_evicted() const noexcept { return total_blocks_evicted_; }
+  std::uint64_t frames_integrated() const noexcept { return frames_; }
+
+ private:
+  /// int16 log-odds (x1000: 0.001 resolution, +-32 range) + uint16 frame stamp = 4 bytes, half a
+  /// float+stamp record: twice the voxels per cache line, and integer clamping is exact.
+  struct Voxel {
+    std::int16_t log_odds;
+    std::uint16_t stamp;
+  };
+  static constexpr std::int16_t kUnknown = INT16_MIN;  ///< log-odds sentinel: never observed
+
+  struct Block {
+    std::array<Voxel, kBlockVoxels> voxels;
+    std::array<std::int32_t, 3> index;  ///< block coordinates (voxel index >> kBlockBits)
+    std::uint64_t last_frame;           ///< frames_ value when last touched by integrate()
+  };
+
+  struct EvictionCandidate {
+    float distance_sq;
+    std::uint32_t slot;
+  };
+
+  using IndexVec = std::array<std::int32_t, 3>;
+
+  static float dequantize(std::int32_t q) noexcept { return static_cast<float>(q) / kLogOddsScale; }
+  static std::uint64_t pack(std::int32_t i, std::int32_t j, std::int32_t k) noexcept {
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    return (static_cast<std::uint64_t>(i + kKeyHalfRange) & kMask) |
+           ((static_cast<std::uint64_t>(j + kKeyHalfRange) & kMask) << 21) |
+           ((static_cast<std::uint64_t>(k + kKeyHalfRange) & kMask) << 42);
+  }
+  static IndexVec unpack(std::uint64_t key) noexcept {
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    return {static_cast<std::int32_t>(key & kMask) - kKeyHalfRange,
+            static_cast<std::int32_t>((key >> 21) & kMask) - kKeyHalfRange,
+            static_cast<std::int32_t>((key >> 42) & kMask) - kKeyHalfRange};
+  }
+  static std::size_t local_index(std::int32_t i, std::int32_t j, std::int32_t k) noexcept {
+    constexpr std::int32_t m = kBlockEdge - 1;
+    return static_cast<std::size_t>((i & m) | ((j & m) << kBlockBits) |
+                                    ((k & m) << (2 * kBlockBits)));
+  }
+  bool index_of(const Eigen::Vector3f& p, IndexVec& idx) const noexcept;  ///< false if outside
+  const Block* find_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) const noexcept {
+    const std::uint32_t* slot = table_.find(pack(bi, bj, bk));
+    return slot == nullptr ? nullptr : &pool_[*slot];
+  }
+  Block* find_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept {
+    const std::uint32_t* slot = table_.find(pack(bi, bj, bk));
+    return slot == nullptr ? nullptr : &pool_[*slot];
+  }
+  const Voxel* find_voxel(const IndexVec& idx) const noexcept;
+  Occupancy classify(std::int16_t q) const noexcept {
+    if (q == kUnknown) return Occupancy::kUnknown;
+    return q > q_occupied_ ? Occupancy::kOccupied : Occupancy::kFree;
+  }
+  Eigen::Vector3f center_of(const IndexVec& idx) const noexcept {
+    return {(static_cast<float>(idx[0]) + 0.5f) * resolution_,
+            (static_cast<float>(idx[1]) + 0.5f) * resolution_,
+            (static_cast<float>(idx[2]) + 0.5f) * resolution_};
+  }
+  /// Voxel index range [lo, hi] of the voxels whose centres lie in `box`; false if empty.
+  bool box_range(const Box3& box, IndexVec& lo, IndexVec& hi) const noexcept;
+  template <class Visit>
+  std::size_t scan_box(const Box3& box, std::size_t max_voxels, Visit&& visit) const;
+
+  // Integration internals (src/occupancy_map.cpp).
+  Block* acquire_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
+  Block* allocate_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
+  std::size_t evict_far_blocks() noexcept;
+  void release_block(std::uint32_t slot) noexcept;
+  void advance_frame_stamp() noexcept;
+  bool ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f& end,
+               bool& is_hit) const noexcept;
+  void traverse_free(const Eigen::Vector3f& end, bool end_is_hit) noexcept;
+
+  // --- configuration (derived at init) ---
+  OccupancyMapConfig config_{};
+  float resolution_ = 0.1f;
+  float inv_resolution_ = 10.f;
+  std::int16_t q_hit_ = 0, q_miss_ = 0, q_min_ = 0, q_max_ = 0, q_occupied_ = 0;
+  bool initialized_ = false;
+
+  // --- map state ---
+  std::array<Block, kMaxMapBlocks> pool_;
+  FixedHashMap<std::uint64_t, std::uint32_t, kBlockTableCapacity> table_;
+  std::array<std::uint32_t, kMaxMapBlocks> free_slots_{};
+  std::array<std::uint64_t, kMaxMapBlocks> slot_key_{};  ///< table key of each used slot
+  std::array<std::uint8_t, kMaxMapBlocks> slot_used_{};
+  std::size_t free_count_ = 0;
+  std::size_t blocks_in_use_ = 0;
+  std::size_t total_blocks_evicted_ = 0;
+  std::uint64_t frames_ = 0;
+  Stamp last_stamp_ = 0;
+  std::uint16_t frame_tag_ = 0;  ///< per-frame stamp base / 4 (cycles, stamps cleared on wrap)
+
+  // --- per-frame scratch (inline, reused) ---
+  std::array<std::uint32_t, kMaxRaysPerFrame> rays_{};  ///< pixel index (v * width + u)
+  std::size_t ray_count_ = 0;
+  std::array<Eigen::Vector3f, kMaxImageWidth> column_dir_{};  ///< R * ((u-cx)/fx, 0, 0)
+  std::array<EvictionCandidate, kMaxMapBlocks> eviction_{};
+  Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
+  Eigen::Vector3f down_dir_ = Eigen::Vector3f::Zero();     ///< R.col(1)
+  Eigen::Vector3f forward_dir_ = Eigen::Vector3f::Zero();  ///< R.col(2)
+  Eigen::Vector3f box_min_ = Eigen::Vector3f::Zero(), box_max_ = Eigen::Vector3f::Zero();
+  const CameraIntrinsics* cam_ = nullptr;
+  std::size_t visits_left_ = 0;
+  std::size_t evictions_this_frame_ = 0;
+  IntegrationStats stats_{};
+};
+
+// ---------------------------------------------------------------------------------------------
+// Template members.
+
+template <class Visit>
+std::size_t OccupancyMap::scan_box(const Box3& box, std::size_t max_voxels, Visit&& visit) const {
+  IndexVec lo{}, hi{};
+  if (!initialized_ || !box_range(box, lo, hi)) return 0;
+  std::size_t examined = 0;
+  std::size_t visited = 0;
+  const std::int32_t b_lo[3] = {lo[0] >> kBlockBits, lo[1] >> kBlockBits, lo[2] >> kBlockBits};
+  const std::int32_t b_hi[3] = {hi[0] >> kBlockBits, hi[1] >> kBlockBits, hi[2] >> kBlockBits};
+  for (std::int32_t bk = b_lo[2]; bk <= b_hi[2]; ++bk) {
+    for (std::int32_t bj = b_lo[1]; bj <= b_hi[1]; ++bj) {
+      for (std::int32_t bi = b_lo[0]; bi <= b_hi[0]; ++bi) {
+        if (examined >= max_voxels) return visited;
+        ++examined;
+        const Block* block = find_block(bi, bj, bk);
+        if (block == nullptr) continue;
+        const std::int32_t i0 = std::max(lo[0], bi * kBlockEdge);
+        const std::int32_t i1 = std::min(hi[0], bi * kBlockEdge + kBlockEdge - 1);
+        const std::int32_t j0 = std::max(lo[1], bj * kBlockEdge);
+        const std::int32_t j1 = std::min(hi[1], bj * kBlockEdge + kBlockEdge - 1);
+        const std::int32_t k0 = std::max(lo[2], bk * kBlockEdge);
+        const std::int32_t k1 = std::min(hi[2], bk * kBlockEdge + kBlockEdge - 1);
+        for (std::int32_t k = k0; k <= k1; ++k) {
+          for (std::int32_t j = j0; j <= j1; ++j) {
+            for (std::int32_t i = i0; i <= i1; ++i) {
+              if (examined >= max_voxels) return visited;
+              ++examined;
+              const std::size_t li = local_index(i, j, k);
+              if (classify(block->voxels[li].log_odds) != Occupancy::kOccupied) continue;
+              if (visit(block, li, IndexVec{i, j, k})) ++visited;
+            }
+          }
+        }
+      }
+    }
+  }
+  return visited;
+}
+
+template <class F>
+std::size_t OccupancyMap::for_each_occupied_in_box(const Box3& box, std::size_t max_voxels,
+                                                   F&& f) const {
+  return scan_box(box, max_voxels, [&](const Block*, std::size_t, const IndexVec& idx) {
+    const Eigen::Vector3f c = center_of(idx);
+    f(pack(idx[0], idx[1], idx[2]), c);
+    return true;
+  });
+}
+
+template <class F>
+std::size_t OccupancyMap::clear_box(const Box3& box, std::size_t max_voxels, F&& on_cleared) {
+  return scan_box(box, max_voxels, [&](const Block* block, std::size_t li, const IndexVec& idx) {
+    // scan_box is const; the block lives in our own pool, so writing through it is sound.
+    Block* mutable_block = &pool_[static_cast<std::size_t>(block - pool_.data())];
+    mutable_block->voxels[li].log_odds = q_min_;
+    const Eigen::Vector3f c = center_of(idx);
+    on_cleared(pack(idx[0], idx[1], idx[2]), c);
+    return true;
+  });
+}
+
+template <class F>
+void OccupancyMap::for_each_occupied(F&& f) const {
+  if (!initialized_) return;
+  for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
+    if (!slot_used_[s]) continue;
+    const Block& b = pool_[s];
+    for (std::int32_t k = 0; k < kBlockEdge; ++k) {
+      for (std::int32_t j = 0; j < kBlockEdge; ++j) {
+        for (std::int32_t i = 0; i < kBlockEdge; ++i) {
+          const std::size_t li = local_index(i, j, k);
+          if (classify(b.voxels[li].log_odds) != Occupancy::kOccupied) continue;
+          const IndexVec idx{b.index[0] * kBlockEdge + i, b.index[1] * kBlockEdge + j,
+                             b.index[2] * kBlockEdge + k};
+          const Eigen::Vector3f c = center_of(idx);
+          f(pack(idx[0], idx[1], idx[2]), c);
+        }
+      }
+    }
+  }
+}
+
+}  // namespace dynamap

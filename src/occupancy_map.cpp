@@ -1,0 +1,552 @@
+#include "dynamap/occupancy_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace dynamap {
+namespace {
+
+/// Eviction passes allowed per frame; each frees a batch of far blocks (bounded O(pool) work).
+constexpr std::size_t kMaxEvictionPassesPerFrame = 8;
+/// Stamps per frame tag: 4 * tag + {kQueued, kHit, kMiss}; 4 * 16383 + 3 fits in uint16.
+constexpr std::uint16_t kMaxFrameTag = 16383;
+constexpr std::uint16_t kQueued = 1;  // a free ray ends here this frame, not yet updated
+constexpr std::uint16_t kHit = 2;     // hit applied this frame
+constexpr std::uint16_t kMiss = 3;    // miss applied this frame
+
+inline std::int32_t fast_floor(float x) noexcept {
+  const auto i = static_cast<std::int32_t>(x);
+  return i - static_cast<std::int32_t>(x < static_cast<float>(i));
+}
+
+inline std::int16_t quantize(float log_odds) noexcept {
+  return static_cast<std::int16_t>(std::lround(log_odds * OccupancyMap::kLogOddsScale));
+}
+
+inline float logit(float p) noexcept {
+  return std::log(p / (1.f - p));
+}
+
+inline std::uint64_t mix64(std::uint64_t x) noexcept {
+  return IntegerHash{}(x);
+}
+
+inline bool finite_positive(float x) noexcept {
+  return std::isfinite(x) && x > 0.f;
+}
+
+}  // namespace
+
+OccupancyMap::OccupancyMap() noexcept = default;
+
+Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
+  const auto prob_ok = [](float p) { return std::isfinite(p) && p > 0.f && p < 1.f; };
+  if (!prob_ok(c.prob_hit) || !prob_ok(c.prob_miss) || !prob_ok(c.prob_min) ||
+      !prob_ok(c.prob_max) || !prob_ok(c.prob_occupied)) {
+    return Status::kInvalidArgument;
+  }
+  if (!(c.prob_min < c.prob_miss && c.prob_miss < 0.5f && 0.5f < c.prob_hit &&
+        c.prob_hit < c.prob_max && c.prob_min <= c.prob_occupied && c.prob_occupied < c.prob_max)) {
+    return Status::kInvalidArgument;
+  }
+  // The clamp range must fit int16 next to the kUnknown sentinel.
+  if (std::fabs(logit(c.prob_min)) > 30.f || std::fabs(logit(c.prob_max)) > 30.f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.resolution) || c.resolution < 0.01f || c.resolution > 10.f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.min_depth) || c.min_depth < 0.f || !finite_positive(c.max_depth) ||
+      c.max_depth <= c.min_depth) {
+    return Status::kInvalidArgument;
+  }
+  if (c.pixel_margin < 0 || c.pixel_stride < 1 || c.pixel_stride > kMaxImageWidth) {
+    return Status::kInvalidArgument;
+  }
+  for (int a = 0; a < 3; ++a) {
+    // Half extents up to 1000 voxels keep the whole local region far inside the key range.
+    if (!finite_positive(c.local_half_extent[a]) ||
+        c.local_half_extent[a] > 1000.f * c.resolution) {
+      return Status::kInvalidArgument;
+    }
+  }
+  if (c.max_blocks < 1 || c.max_blocks > kMaxMapBlocks || c.max_rays_per_frame < 1 ||
+      c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1) {
+    return Status::kInvalidArgument;
+  }
+
+  config_ = c;
+  resolution_ = c.resolution;
+  inv_resolution_ = 1.f / c.resolution;
+  q_hit_ = quantize(logit(c.prob_hit));
+  q_miss_ = quantize(logit(c.prob_miss));
+  q_min_ = quantize(logit(c.prob_min));
+  q_max_ = quantize(logit(c.prob_max));
+  q_occupied_ = quantize(logit(c.prob_occupied));
+
+  table_.clear();
+  for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
+    free_slots_[s] = static_cast<std::uint32_t>(kMaxMapBlocks - 1 - s);  // pop yields 0, 1, ...
+  }
+  slot_used_.fill(0);
+  free_count_ = kMaxMapBlocks;
+  blocks_in_use_ = 0;
+  total_blocks_evicted_ = 0;
+  frames_ = 0;
+  last_stamp_ = 0;
+  frame_tag_ = 0;
+  ray_count_ = 0;
+  stats_ = IntegrationStats{};
+  initialized_ = true;
+  return Status::kOk;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Keys and lookups.
+
+bool OccupancyMap::index_of(const Eigen::Vector3f& p, IndexVec& idx) const noexcept {
+  constexpr float kLimit = static_cast<float>(kKeyHalfRange);
+  for (int a = 0; a < 3; ++a) {
+    const float x = p[a] * inv_resolution_;
+    if (!(x >= -kLimit && x < kLimit)) return false;  // also rejects NaN
+    idx[static_cast<std::size_t>(a)] = fast_floor(x);
+  }
+  return idx[0] < kKeyHalfRange && idx[1] < kKeyHalfRange && idx[2] < kKeyHalfRange;
+}
+
+OccupancyMap::VoxelKey OccupancyMap::key_of(const Eigen::Vector3f& p) const noexcept {
+  IndexVec idx{};
+  for (int a = 0; a < 3; ++a) {
+    const float x = p[a] * inv_resolution_;
+    std::int32_t i = 0;
+    if (std::isnan(x)) {
+      i = 0;
+    } else if (x < -static_cast<float>(kKeyHalfRange)) {
+      i = -kKeyHalfRange;
+    } else if (x >= static_cast<float>(kKeyHalfRange - 1)) {
+      i = kKeyHalfRange - 1;
+    } else {
+      i = fast_floor(x);
+    }
+    idx[static_cast<std::size_t>(a)] = i;
+  }
+  return pack(idx[0], idx[1], idx[2]);
+}
+
+Eigen::Vector3f OccupancyMap::center_of(VoxelKey key) const noexcept {
+  return center_of(unpack(key));
+}
+
+const OccupancyMap::Voxel* OccupancyMap::find_voxel(const IndexVec& idx) const noexcept {
+  const Block* b = find_block(idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits);
+  return b == nullptr ? nullptr : &b->voxels[local_index(idx[0], idx[1], idx[2])];
+}
+
+Occupancy OccupancyMap::state(const Eigen::Vector3f& p) const noexcept {
+  IndexVec idx{};
+  if (!initialized_ || !index_of(p, idx)) return Occupancy::kUnknown;
+  const Voxel* v = find_voxel(idx);
+  return v == nullptr ? Occupancy::kUnknown : classify(v->log_odds);
+}
+
+Occupancy OccupancyMap::state(VoxelKey key) const noexcept {
+  if (!initialized_) return Occupancy::kUnknown;
+  const Voxel* v = find_voxel(unpack(key));
+  return v == nullptr ? Occupancy::kUnknown : classify(v->log_odds);
+}
+
+float OccupancyMap::log_odds(const Eigen::Vector3f& p) const noexcept {
+  IndexVec idx{};
+  if (!initialized_ || !index_of(p, idx)) return 0.f;
+  const Voxel* v = find_voxel(idx);
+  if (v == nullptr || v->log_odds == kUnknown) return 0.f;
+  return dequantize(v->log_odds);
+}
+
+bool OccupancyMap::is_occupied(const Eigen::Vector3f& p) const noexcept {
+  return state(p) == Occupancy::kOccupied;
+}
+
+bool OccupancyMap::box_range(const Box3& box, IndexVec& lo, IndexVec& hi) const noexcept {
+  if (!box.min.allFinite() || !box.max.allFinite()) return false;
+  constexpr float kLimit = static_cast<float>(kKeyHalfRange);
+  for (int a = 0; a < 3; ++a) {
+    // Voxel i has its centre inside [min, max] iff min/res - 0.5 <= i <= max/res - 0.5.
+    const float l = std::max(std::ceil(box.min[a] * inv_resolution_ - 0.5f), -kLimit);
+    const float h = std::min(std::floor(box.max[a] * inv_resolution_ - 0.5f), kLimit - 1.f);
+    if (l > h) return false;
+    lo[static_cast<std::size_t>(a)] = static_cast<std::int32_t>(l);
+    hi[static_cast<std::size_t>(a)] = static_cast<std::int32_t>(h);
+  }
+  return true;
+}
+
+bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                             Eigen::Vector3f* hit) const noexcept {
+  IndexVec idx{}, end{};
+  if (!initialized_ || !index_of(a, idx) || !index_of(b, end)) return false;
+  const Eigen::Vector3f d = b - a;
+  std::int32_t step[3];
+  std::int32_t remaining[3];
+  float t_max[3];
+  float t_delta[3];
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  for (std::size_t ax = 0; ax < 3; ++ax) {
+    const int e = static_cast<int>(ax);
+    remaining[ax] = std::abs(end[ax] - idx[ax]);
+    step[ax] = end[ax] > idx[ax] ? 1 : -1;
+    if (remaining[ax] == 0 || d[e] == 0.f) {
+      remaining[ax] = 0;
+      t_max[ax] = kInf;
+      t_delta[ax] = kInf;
+      continue;
+    }
+    const float boundary = static_cast<float>(idx[ax] + (step[ax] > 0 ? 1 : 0)) * resolution_;
+    t_max[ax] = (boundary - a[e]) / d[e];
+    t_delta[ax] = resolution_ / std::fabs(d[e]);
+  }
+  const Block* block = nullptr;
+  IndexVec block_idx{};
+  bool have_block = false;
+  for (std::size_t n = 0; n < kMaxSegmentVisits; ++n) {
+    const IndexVec bidx{idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits};
+    if (!have_block || bidx != block_idx) {  // cached accessor: one lookup per block crossed
+      block = find_block(bidx[0], bidx[1], bidx[2]);
+      block_idx = bidx;
+      have_block = true;
+    }
+    if (block != nullptr && classify(block->voxels[local_index(idx[0], idx[1], idx[2])].log_odds) ==
+                                Occupancy::kOccupied) {
+      if (hit != nullptr) *hit = center_of(idx);
+      return true;
+    }
+    if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
+    std::size_t ax = 0;
+    if (t_max[1] < t_max[ax]) ax = 1;
+    if (t_max[2] < t_max[ax]) ax = 2;
+    idx[ax] += step[ax];
+    if (--remaining[ax] == 0) {
+      t_max[ax] = kInf;
+    } else {
+      t_max[ax] += t_delta[ax];
+    }
+  }
+  return false;
+}
+
+std::uint64_t OccupancyMap::checksum() const noexcept {
+  std::uint64_t sum = 0;
+  for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
+    if (!slot_used_[s]) continue;
+    std::uint64_t h = mix64(slot_key_[s]);
+    for (const Voxel& v : pool_[s].voxels) {
+      h = mix64(h ^ static_cast<std::uint16_t>(v.log_odds));
+    }
+    sum += mix64(h);  // a sum of per-block hashes does not depend on the pool layout
+  }
+  return sum;
+}
+
+Status OccupancyMap::set_log_odds(const Eigen::Vector3f& p, float value) noexcept {
+  if (!initialized_) return Status::kNotInitialized;
+  if (!p.allFinite() || !std::isfinite(value)) return Status::kNonFinite;
+  IndexVec idx{};
+  if (!index_of(p, idx)) return Status::kInvalidArgument;
+  const std::int32_t bi = idx[0] >> kBlockBits, bj = idx[1] >> kBlockBits,
+                     bk = idx[2] >> kBlockBits;
+  Block* b = find_block(bi, bj, bk);
+  if (b == nullptr) b = allocate_block(bi, bj, bk);
+  if (b == nullptr) return Status::kCapacityExceeded;
+  const float q =
+      std::clamp(value * kLogOddsScale, static_cast<float>(q_min_), static_cast<float>(q_max_));
+  b->voxels[local_index(idx[0], idx[1], idx[2])].log_odds =
+      static_cast<std::int16_t>(std::lround(q));
+  return Status::kOk;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Block pool.
+
+OccupancyMap::Block* OccupancyMap::allocate_block(std::int32_t bi, std::int32_t bj,
+                                                  std::int32_t bk) noexcept {
+  if (free_count_ == 0 || blocks_in_use_ >= config_.max_blocks) return nullptr;
+  const std::uint64_t key = pack(bi, bj, bk);
+  const std::uint32_t slot = free_slots_[free_count_ - 1];
+  if (!ok(table_.insert_or_assign(key, slot))) return nullptr;  // cannot happen at load <= 0.5
+  --free_count_;
+  ++blocks_in_use_;
+  slot_used_[slot] = 1;
+  slot_key_[slot] = key;
+  Block& b = pool_[slot];
+  b.voxels.fill(Voxel{kUnknown, 0});
+  b.index = {bi, bj, bk};
+  b.last_frame = frames_;
+  ++stats_.blocks_allocated;
+  return &b;
+}
+
+void OccupancyMap::release_block(std::uint32_t slot) noexcept {
+  table_.erase(slot_key_[slot]);
+  slot_used_[slot] = 0;
+  free_slots_[free_count_++] = slot;
+  --blocks_in_use_;
+}
+
+std::size_t OccupancyMap::evict_far_blocks() noexcept {
+  if (evictions_this_frame_ >= kMaxEvictionPassesPerFrame) return 0;
+  ++evictions_this_frame_;
+  std::size_t n = 0;
+  const float half_block = 0.5f * static_cast<float>(kBlockEdge);
+  for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
+    // Blocks touched this frame stay: they may hold this frame's hits and cached pointers.
+    if (!slot_used_[s] || pool_[s].last_frame == frames_) continue;
+    const Block& b = pool_[s];
+    Eigen::Vector3f c;
+    for (int a = 0; a < 3; ++a) {
+      c[a] = (static_cast<float>(b.index[static_cast<std::size_t>(a)] * kBlockEdge) + half_block) *
+             resolution_;
+    }
+    eviction_[n++] = EvictionCandidate{(c - origin_).squaredNorm(), static_cast<std::uint32_t>(s)};
+  }
+  if (n == 0) return 0;
+  const std::size_t batch = std::min(n, std::max<std::size_t>(1, config_.max_blocks / 16));
+  const auto farther = [](const EvictionCandidate& x, const EvictionCandidate& y) {
+    return x.distance_sq > y.distance_sq;
+  };
+  std::nth_element(eviction_.begin(), eviction_.begin() + static_cast<std::ptrdiff_t>(batch - 1),
+                   eviction_.begin() + static_cast<std::ptrdiff_t>(n), farther);
+  for (std::size_t e = 0; e < batch; ++e) release_block(eviction_[e].slot);
+  stats_.blocks_evicted += batch;
+  total_blocks_evicted_ += batch;
+  return batch;
+}
+
+OccupancyMap::Block* OccupancyMap::acquire_block(std::int32_t bi, std::int32_t bj,
+                                                 std::int32_t bk) noexcept {
+  Block* b = find_block(bi, bj, bk);
+  if (b == nullptr) {
+    b = allocate_block(bi, bj, bk);
+    if (b == nullptr && evict_far_blocks() > 0) b = allocate_block(bi, bj, bk);
+    if (b == nullptr) return nullptr;
+  }
+  b->last_frame = frames_;
+  return b;
+}
+
+void OccupancyMap::advance_frame_stamp() noexcept {
+  if (frame_tag_ >= kMaxFrameTag) {
+    // Rare wrap (every ~9 min at 30 Hz): old stamps could alias new ones, so clear them all.
+    for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
+      if (!slot_used_[s]) continue;
+      for (Voxel& v : pool_[s].voxels) v.stamp = 0;
+    }
+    frame_tag_ = 0;
+  }
+  ++frame_tag_;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Integration.
+
+bool OccupancyMap::ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f& end,
+                           bool& is_hit) const noexcept {
+  const std::uint16_t raw = depth.at(u, v);
+  float z = static_cast<float>(raw) * cam_->depth_scale;
+  is_hit = true;
+  if (raw == 0 || z > config_.max_depth) {
+    z = config_.max_depth;
+    is_hit = false;
+  } else if (z < config_.min_depth) {
+    return false;
+  }
+  const float ry = (static_cast<float>(v) - cam_->cy) / cam_->fy;
+  Eigen::Vector3f offset =
+      (column_dir_[static_cast<std::size_t>(u)] + ry * down_dir_ + forward_dir_) * z;
+  // Clip to the local region (the camera is at its centre).
+  float scale = 1.f;
+  for (int a = 0; a < 3; ++a) {
+    const float o = std::fabs(offset[a]);
+    const float h = config_.local_half_extent[a];
+    if (o > h) scale = std::min(scale, h / o);
+  }
+  if (scale < 1.f) {
+    offset *= scale * (1.f - 1e-4f);  // stay just inside so the end voxel is in the region
+    is_hit = false;
+  }
+  end = origin_ + offset;
+  return true;
+}
+
+void OccupancyMap::traverse_free(const Eigen::Vector3f& end, bool end_is_hit) noexcept {
+  IndexVec idx{}, last{};
+  if (!index_of(origin_, idx) || !index_of(end, last)) return;
+  const Eigen::Vector3f d = end - origin_;
+  std::int32_t step[3];
+  std::int32_t remaining[3];
+  float t_max[3];
+  float t_delta[3];
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  for (std::size_t ax = 0; ax < 3; ++ax) {
+    const int e = static_cast<int>(ax);
+    remaining[ax] = std::abs(last[ax] - idx[ax]);
+    step[ax] = last[ax] > idx[ax] ? 1 : -1;
+    if (remaining[ax] == 0 || d[e] == 0.f) {
+      remaining[ax] = 0;
+      t_max[ax] = kInf;
+      t_delta[ax] = kInf;
+      continue;
+    }
+    const float boundary = static_cast<float>(idx[ax] + (step[ax] > 0 ? 1 : 0)) * resolution_;
+    t_max[ax] = (boundary - origin_[e]) / d[e];
+    t_delta[ax] = resolution_ / std::fabs(d[e]);
+  }
+  // A hit ray carves up to (not including) its end voxel; the end voxel was already hit.
+  std::int32_t steps = remaining[0] + remaining[1] + remaining[2] + (end_is_hit ? 0 : 1);
+  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
+  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
+  const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
+  Block* block = nullptr;
+  IndexVec block_idx{idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits};
+  block = acquire_block(block_idx[0], block_idx[1], block_idx[2]);
+  while (steps-- > 0) {
+    if (visits_left_ == 0) {
+      ++stats_.rays_dropped;
+      return;
+    }
+    --visits_left_;
+    ++stats_.voxel_visits;
+    if (block == nullptr) {
+      ++stats_.updates_dropped;
+    } else {
+      Voxel& vx = block->voxels[local_index(idx[0], idx[1], idx[2])];
+      if (vx.stamp != hit_stamp && vx.stamp != miss_stamp) {
+        const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
+        vx.log_odds = static_cast<std::int16_t>(std::max<std::int32_t>(current + q_miss_, q_min_));
+        vx.stamp = miss_stamp;
+        ++stats_.voxel_updates;
+      }
+    }
+    if (steps == 0) break;
+    std::size_t ax = 0;
+    if (t_max[1] < t_max[ax]) ax = 1;
+    if (t_max[2] < t_max[ax]) ax = 2;
+    idx[ax] += step[ax];
+    if (--remaining[ax] == 0) {
+      t_max[ax] = kInf;
+    } else {
+      t_max[ax] += t_delta[ax];
+    }
+    const std::int32_t nb = idx[ax] >> kBlockBits;
+    if (nb != block_idx[ax]) {  // crossed into the next block: one table lookup
+      block_idx[ax] = nb;
+      block = acquire_block(block_idx[0], block_idx[1], block_idx[2]);
+    }
+  }
+}
+
+Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& cam,
+                               const Pose& T_map_camera, Stamp stamp) noexcept {
+  if (!initialized_) return Status::kNotInitialized;
+  if (const Status s = validate_depth(depth, cam); !ok(s)) return s;
+  if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) return Status::kWrongSize;
+  if (!finite_positive(cam.fx) || !finite_positive(cam.fy) || !std::isfinite(cam.cx) ||
+      !std::isfinite(cam.cy) || !finite_positive(cam.depth_scale)) {
+    return Status::kInvalidArgument;
+  }
+  if (const Status s = validate_pose(T_map_camera); !ok(s)) return s;
+  // Keep the local region well inside the key range.
+  const float limit = 0.5f * static_cast<float>(kKeyHalfRange) * resolution_;
+  if ((T_map_camera.translation.array().abs() > limit).any()) return Status::kInvalidArgument;
+  if (frames_ > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+
+  // Input accepted: from here on the frame always completes.
+  stats_ = IntegrationStats{};
+  ++frames_;
+  last_stamp_ = stamp;
+  advance_frame_stamp();
+  evictions_this_frame_ = 0;
+  visits_left_ = config_.max_voxel_visits_per_frame;
+  ray_count_ = 0;
+  cam_ = &cam;
+  origin_ = T_map_camera.translation;
+  const Eigen::Matrix3f R = T_map_camera.rotation.normalized().toRotationMatrix();
+  for (int u = 0; u < cam.width; ++u) {
+    column_dir_[static_cast<std::size_t>(u)] =
+        R.col(0) * ((static_cast<float>(u) - cam.cx) / cam.fx);
+  }
+  down_dir_ = R.col(1);
+  forward_dir_ = R.col(2);
+
+  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
+  const std::uint16_t queued_stamp = static_cast<std::uint16_t>(base + kQueued);
+  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
+  const bool merge = config_.merge_rays_per_voxel;
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+
+  // Pass 1: end points. Hits are applied here (once per voxel), so pass 2's misses skip them:
+  // hit wins over miss. Rays ending in an already-seen voxel are merged (when enabled).
+  Block* block = nullptr;
+  IndexVec block_idx{};
+  for (int v = margin; v < cam.height - margin; v += stride) {
+    for (int u = margin; u < cam.width - margin; u += stride) {
+      Eigen::Vector3f end;
+      bool is_hit = false;
+      if (!ray_end(depth, u, v, end, is_hit)) continue;
+      ++stats_.pixels_sampled;
+      IndexVec idx{};
+      if (!index_of(end, idx)) continue;  // cannot happen: the region is inside the key range
+      const IndexVec bidx{idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits};
+      if (block == nullptr || bidx != block_idx) {
+        block = acquire_block(bidx[0], bidx[1], bidx[2]);
+        block_idx = bidx;
+        if (block == nullptr) {
+          ++stats_.rays_dropped;
+          ++stats_.updates_dropped;
+          continue;
+        }
+      }
+      Voxel& vx = block->voxels[local_index(idx[0], idx[1], idx[2])];
+      const bool seen = vx.stamp == hit_stamp || vx.stamp == queued_stamp;
+      if (merge && (vx.stamp == hit_stamp || (!is_hit && seen))) {
+        ++stats_.rays_merged;
+        continue;
+      }
+      if (ray_count_ >= config_.max_rays_per_frame) {
+        ++stats_.rays_dropped;
+        continue;
+      }
+      if (is_hit) {
+        if (vx.stamp != hit_stamp) {
+          const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
+          vx.log_odds = static_cast<std::int16_t>(std::min<std::int32_t>(current + q_hit_, q_max_));
+          vx.stamp = hit_stamp;
+          ++stats_.voxel_updates;
+          ++stats_.hits;
+        }
+      } else if (vx.stamp != hit_stamp) {
+        vx.stamp = queued_stamp;
+      }
+      rays_[ray_count_++] = static_cast<std::uint32_t>(v * cam.width + u);
+    }
+  }
+
+  // Pass 2: free space along each ray with a 3-D DDA, within the visit budget.
+  for (std::size_t r = 0; r < ray_count_; ++r) {
+    if (visits_left_ == 0) {
+      stats_.rays_dropped += ray_count_ - r;
+      break;
+    }
+    const int u = static_cast<int>(rays_[r] % static_cast<std::uint32_t>(cam.width));
+    const int v = static_cast<int>(rays_[r] / static_cast<std::uint32_t>(cam.width));
+    Eigen::Vector3f end;
+    bool is_hit = false;
+    if (!ray_end(depth, u, v, end, is_hit)) continue;
+    ++stats_.rays;
+    traverse_free(end, is_hit);
+  }
+  cam_ = nullptr;
+  return Status::kOk;
+}
+
+}  // namespace dynamap

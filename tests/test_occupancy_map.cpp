@@ -1,0 +1,631 @@
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "alloc_guard.hpp"
+#include "dynamap/occupancy_map.hpp"
+
+namespace dynamap {
+namespace {
+
+using Vec3 = Eigen::Vector3f;
+constexpr Stamp kFrameNs = 33'333'333;
+constexpr float kHitLogOdds = 0.8473f;    // logit(0.70)
+constexpr float kMissLogOdds = -0.6190f;  // logit(0.35)
+constexpr float kQuantum = 1.5e-3f;       // int16 storage, 1/1000 steps
+
+// ---- a tiny analytic scene and depth renderer (planes and axis-aligned boxes) ---------------
+
+struct Plane {
+  Vec3 point, normal;
+};
+struct Scene {
+  std::vector<Plane> planes;
+  std::vector<Box3> boxes;
+};
+
+/// Map-from-camera rotation for a body with yaw (about z), pitch (about y, + looks down), roll.
+Eigen::Quaternionf camera_rotation(float yaw, float pitch, float roll) {
+  Eigen::Matrix3f body_from_cam;  // optical x right, y down, z forward -> body x fwd, y left, z up
+  body_from_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  const Eigen::Matrix3f map_from_body =
+      (Eigen::AngleAxisf(yaw, Vec3::UnitZ()) * Eigen::AngleAxisf(pitch, Vec3::UnitY()) *
+       Eigen::AngleAxisf(roll, Vec3::UnitX()))
+          .toRotationMatrix();
+  return Eigen::Quaternionf(map_from_body * body_from_cam).normalized();
+}
+
+Pose make_pose(const Vec3& t, float yaw, float pitch = 0.f, float roll = 0.f) {
+  Pose p;
+  p.translation = t;
+  p.rotation = camera_rotation(yaw, pitch, roll);
+  return p;
+}
+
+CameraIntrinsics small_camera(int w = 160, int h = 120) {
+  CameraIntrinsics c;
+  c.width = w;
+  c.height = h;
+  c.fx = c.fy = 0.625f * static_cast<float>(w);  // ~77 deg horizontal field of view
+  c.cx = 0.5f * static_cast<float>(w) - 0.5f;
+  c.cy = 0.5f * static_cast<float>(h) - 0.5f;
+  c.depth_scale = 0.001f;
+  return c;
+}
+
+/// Map-frame direction of pixel (u, v), scaled so that its camera z component is 1.
+Vec3 pixel_dir(const CameraIntrinsics& c, const Pose& pose, int u, int v) {
+  const Vec3 d_cam((static_cast<float>(u) - c.cx) / c.fx, (static_cast<float>(v) - c.cy) / c.fy,
+                   1.f);
+  return pose.rotation * d_cam;
+}
+
+/// Camera z-depth of the first surface along the pixel, or +inf.
+float trace(const Scene& s, const Vec3& o, const Vec3& d) {
+  float best = std::numeric_limits<float>::infinity();
+  for (const Plane& p : s.planes) {
+    const float den = p.normal.dot(d);
+    if (std::fabs(den) < 1e-9f) continue;
+    const float t = p.normal.dot(p.point - o) / den;
+    if (t > 0.f) best = std::min(best, t);
+  }
+  for (const Box3& b : s.boxes) {
+    float t0 = 0.f, t1 = std::numeric_limits<float>::infinity();
+    bool miss = false;
+    for (int a = 0; a < 3 && !miss; ++a) {
+      if (std::fabs(d[a]) < 1e-12f) {
+        miss = o[a] < b.min[a] || o[a] > b.max[a];
+        continue;
+      }
+      float ta = (b.min[a] - o[a]) / d[a], tb = (b.max[a] - o[a]) / d[a];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      miss = t0 > t1;
+    }
+    if (!miss && t0 > 0.f) best = std::min(best, t0);
+  }
+  return best;
+}
+
+struct DepthImage {
+  std::vector<std::uint16_t> pixels;
+  DepthView view;
+};
+
+/// Renders the scene; depths beyond 65 m (or nothing hit) become 0 = no return.
+DepthImage render(const Scene& s, const CameraIntrinsics& c, const Pose& pose) {
+  DepthImage img;
+  img.pixels.assign(static_cast<std::size_t>(c.width * c.height), 0);
+  for (int v = 0; v < c.height; ++v) {
+    for (int u = 0; u < c.width; ++u) {
+      const float z = trace(s, pose.translation, pixel_dir(c, pose, u, v));
+      if (std::isfinite(z) && z < 65.f) {
+        img.pixels[static_cast<std::size_t>(v * c.width + u)] =
+            static_cast<std::uint16_t>(std::lround(z / c.depth_scale));
+      }
+    }
+  }
+  img.view.data = img.pixels.data();
+  img.view.width = c.width;
+  img.view.height = c.height;
+  img.view.stride_bytes = c.width * static_cast<int>(sizeof(std::uint16_t));
+  return img;
+}
+
+/// Map point the integrator computes for pixel (u, v) of `img` (uses the quantised depth).
+Vec3 end_point(const DepthImage& img, const CameraIntrinsics& c, const Pose& pose, int u, int v) {
+  const float z = static_cast<float>(img.view.at(u, v)) * c.depth_scale;
+  return pose.translation + pixel_dir(c, pose, u, v) * z;
+}
+
+std::unique_ptr<OccupancyMap> make_map(const OccupancyMapConfig& cfg = OccupancyMapConfig{}) {
+  auto map = std::make_unique<OccupancyMap>();
+  EXPECT_EQ(map->init(cfg), Status::kOk);
+  return map;
+}
+
+Scene wall_scene(float x) {
+  return Scene{{Plane{Vec3(x, 0, 0), Vec3(1, 0, 0)}}, {}};
+}
+
+// ---- wall at a known distance ---------------------------------------------------------------
+
+struct WallCase {
+  const char* name;
+  Pose pose;
+  bool merge;
+};
+
+/// Wall x = 3.03 seen from `pose`: after two frames the wall voxel of every sampled pixel is
+/// occupied, points along its ray well before the wall are free, points behind it are unknown.
+void check_wall(const WallCase& wc) {
+  SCOPED_TRACE(std::string(wc.name) + (wc.merge ? " merge" : " no merge"));
+  OccupancyMapConfig cfg;
+  cfg.merge_rays_per_voxel = wc.merge;
+  auto map = make_map(cfg);
+  const CameraIntrinsics cam = small_camera();
+  const Scene scene = wall_scene(3.03f);
+  const DepthImage img = render(scene, cam, wc.pose);
+  ASSERT_EQ(map->integrate(img.view, cam, wc.pose, 1 * kFrameNs), Status::kOk);
+  ASSERT_EQ(map->integrate(img.view, cam, wc.pose, 2 * kFrameNs), Status::kOk);
+
+  int checked = 0;
+  int free_checked = 0, free_found = 0;
+  for (int v = cfg.pixel_margin; v < cam.height - cfg.pixel_margin; v += cfg.pixel_stride) {
+    for (int u = cfg.pixel_margin; u < cam.width - cfg.pixel_margin; u += cfg.pixel_stride) {
+      const float z = static_cast<float>(img.view.at(u, v)) * cam.depth_scale;
+      if (img.view.at(u, v) == 0 || z > cfg.max_depth || z < cfg.min_depth) continue;
+      const Vec3 p = end_point(img, cam, wc.pose, u, v);
+      if (((p - wc.pose.translation).array().abs() > cfg.local_half_extent.array()).any()) {
+        continue;  // clipped by the local region
+      }
+      ++checked;
+      EXPECT_EQ(map->state(p), Occupancy::kOccupied) << "u=" << u << " v=" << v;
+      EXPECT_NEAR(map->log_odds(p), 2.f * kHitLogOdds, 2.f * kQuantum);
+      const Vec3 ray = p - wc.pose.translation;
+      for (float f : {0.15f, 0.4f, 0.6f, 0.8f}) {
+        const Vec3 q = wc.pose.translation + f * ray;
+        if (q.x() > 2.85f) continue;  // keep two voxels away from the wall
+        const Occupancy s = map->state(q);
+        EXPECT_NE(s, Occupancy::kOccupied) << "u=" << u << " v=" << v << " f=" << f;
+        ++free_checked;
+        if (s == Occupancy::kFree) {
+          ++free_found;
+        } else if (!wc.merge) {
+          ADD_FAILURE() << "not free: u=" << u << " v=" << v << " f=" << f;
+        }
+      }
+      for (float behind : {0.15f, 0.5f, 1.0f}) {
+        EXPECT_EQ(map->state(p + behind * ray.normalized()), Occupancy::kUnknown);
+      }
+    }
+  }
+  EXPECT_GT(checked, 500);
+  // Every sampled ray is traversed exactly without merging. With merging, one ray per end voxel
+  // carves for all pixels ending there; a point on a non-representative ray can fall in a voxel
+  // no representative crosses (mostly at the frustum edge). Such voxels stay unknown, never
+  // occupied; the measured coverage is > 99.5 % on these scenes.
+  std::printf("[ %s%s ] free coverage %d / %d\n", wc.name, wc.merge ? " merge" : "", free_found,
+              free_checked);
+  EXPECT_GT(free_checked, 1000);
+  EXPECT_GE(static_cast<double>(free_found), 0.99 * static_cast<double>(free_checked));
+  // Nothing behind the camera was touched.
+  EXPECT_EQ(map->state(Vec3(wc.pose.translation - 0.5f * (wc.pose.rotation * Vec3::UnitZ()))),
+            Occupancy::kUnknown);
+}
+
+TEST(OccupancyMap, WallAtKnownDistanceLevelCamera) {
+  for (bool merge : {true, false}) {
+    check_wall({"level", make_pose(Vec3(0, 0, 1), 0.f), merge});
+  }
+}
+
+TEST(OccupancyMap, WallAtKnownDistanceTiltedCamera) {
+  for (bool merge : {true, false}) {
+    check_wall({"tilted", make_pose(Vec3(0.2f, -0.3f, 1.2f), 0.f, 0.3f, 0.25f), merge});
+  }
+}
+
+TEST(OccupancyMap, WallAtKnownDistanceRotatedPose) {
+  for (bool merge : {true, false}) {
+    // Yawed 35 degrees and rolled: the wall is seen obliquely.
+    check_wall({"rotated", make_pose(Vec3(-0.5f, 1.0f, 0.8f), 0.6f, -0.1f, -0.4f), merge});
+  }
+}
+
+// ---- one update per voxel per frame, hit wins ----------------------------------------------
+
+TEST(OccupancyMap, EachVoxelUpdatedAtMostOncePerFrameAndHitWins) {
+  for (bool merge : {true, false}) {
+    SCOPED_TRACE(merge ? "merge" : "no merge");
+    OccupancyMapConfig cfg;
+    cfg.merge_rays_per_voxel = merge;
+    auto map = make_map(cfg);
+    const CameraIntrinsics cam = small_camera();
+    // A floor seen at a grazing angle: rays pass through voxels that other rays end in.
+    const Scene scene{{Plane{Vec3(0, 0, 0), Vec3(0, 0, 1)}}, {}};
+    const Pose pose = make_pose(Vec3(0, 0, 0.6f), 0.f, 0.25f);
+    const DepthImage img = render(scene, cam, pose);
+    ASSERT_EQ(map->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
+    const IntegrationStats st = map->last_stats();
+    EXPECT_GT(st.hits, 0u);
+    EXPECT_GT(st.voxel_updates, st.hits);
+
+    std::size_t hits = 0, misses = 0;
+    for (int i = -52; i < 52; ++i) {
+      for (int j = -52; j < 52; ++j) {
+        for (int k = -5; k < 40; ++k) {
+          const Vec3 c =
+              (Vec3(static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)) +
+               Vec3::Constant(0.5f)) *
+              0.1f;
+          if (map->state(c) == Occupancy::kUnknown) continue;
+          const float l = map->log_odds(c);
+          if (std::fabs(l - kHitLogOdds) < kQuantum) {
+            ++hits;
+          } else {
+            EXPECT_NEAR(l, kMissLogOdds, kQuantum) << c.transpose();
+            ++misses;
+          }
+        }
+      }
+    }
+    EXPECT_EQ(hits, st.hits);
+    EXPECT_EQ(hits + misses, st.voxel_updates);
+    // Every measured end point holds a hit, even when another ray passed through it.
+    for (int v = cfg.pixel_margin; v < cam.height - cfg.pixel_margin; v += cfg.pixel_stride) {
+      for (int u = cfg.pixel_margin; u < cam.width - cfg.pixel_margin; u += cfg.pixel_stride) {
+        const float z = static_cast<float>(img.view.at(u, v)) * cam.depth_scale;
+        if (img.view.at(u, v) == 0 || z > cfg.max_depth || z < cfg.min_depth) continue;
+        const Vec3 p = end_point(img, cam, pose, u, v);
+        if ((p - pose.translation).cwiseAbs().maxCoeff() > 4.9f) continue;
+        EXPECT_NEAR(map->log_odds(p), kHitLogOdds, kQuantum);
+      }
+    }
+  }
+}
+
+// ---- no-return, too-near and out-of-region pixels --------------------------------------------
+
+TEST(OccupancyMap, NoReturnPixelsCarveFreeSpaceUpToMaxDepth) {
+  auto map = make_map();
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  std::vector<std::uint16_t> zeros(static_cast<std::size_t>(cam.width * cam.height), 0);
+  DepthView view{zeros.data(), cam.width, cam.height,
+                 cam.width * static_cast<int>(sizeof(std::uint16_t))};
+  ASSERT_EQ(map->integrate(view, cam, pose, kFrameNs), Status::kOk);
+  EXPECT_EQ(map->last_stats().hits, 0u);
+  EXPECT_EQ(map->state(Vec3(2.0f, 0.05f, 1.05f)), Occupancy::kFree);
+  EXPECT_EQ(map->state(Vec3(4.85f, 0.05f, 1.05f)), Occupancy::kFree);
+  EXPECT_EQ(map->state(Vec3(5.25f, 0.05f, 1.05f)), Occupancy::kUnknown);
+  std::size_t occupied = 0;
+  map->for_each_occupied([&](OccupancyMap::VoxelKey, const Vec3&) { ++occupied; });
+  EXPECT_EQ(occupied, 0u);
+
+  // Beyond max depth: the same free-only ray; nearer than min depth: nothing at all.
+  auto far_map = make_map();
+  std::vector<std::uint16_t> far(zeros.size(), 9000);  // 9 m
+  view.data = far.data();
+  ASSERT_EQ(far_map->integrate(view, cam, pose, kFrameNs), Status::kOk);
+  EXPECT_EQ(far_map->checksum(), map->checksum());
+  auto near_map = make_map();
+  std::vector<std::uint16_t> near(zeros.size(), 400);  // 0.4 m < min_depth
+  view.data = near.data();
+  const std::uint64_t empty = near_map->checksum();
+  ASSERT_EQ(near_map->integrate(view, cam, pose, kFrameNs), Status::kOk);
+  EXPECT_EQ(near_map->checksum(), empty);
+  EXPECT_EQ(near_map->last_stats().pixels_sampled, 0u);
+}
+
+TEST(OccupancyMap, OnlyTheLocalRegionIsUpdated) {
+  auto map = make_map();  // +-3 m in z
+  const CameraIntrinsics cam = small_camera();
+  // Looking straight up at a ceiling 4.03 m above: rays are clipped at 3 m and carry no hit.
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f, -static_cast<float>(M_PI) / 2.f);
+  const Scene scene{{Plane{Vec3(0, 0, 5.03f), Vec3(0, 0, 1)}}, {}};
+  const DepthImage img = render(scene, cam, pose);
+  ASSERT_EQ(map->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
+  EXPECT_EQ(map->last_stats().hits, 0u);
+  EXPECT_EQ(map->state(Vec3(0.05f, 0.05f, 3.55f)), Occupancy::kFree);
+  EXPECT_EQ(map->state(Vec3(0.05f, 0.05f, 4.25f)), Occupancy::kUnknown);
+  EXPECT_EQ(map->state(Vec3(0.05f, 0.05f, 5.05f)), Occupancy::kUnknown);
+}
+
+// ---- dynamic objects and revisits ------------------------------------------------------------
+
+TEST(OccupancyMap, ObjectThatLeavesIsClearedWhenTheCameraComesBack) {
+  auto map = make_map();
+  const CameraIntrinsics cam = small_camera();
+  const Pose home = make_pose(Vec3(0, 0, 1), 0.f);
+  const Pose away = make_pose(Vec3(0, 0, 1), static_cast<float>(M_PI));  // looking backwards
+  Scene with_box = wall_scene(4.03f);
+  with_box.boxes.push_back(Box3{Vec3(2.03f, -0.37f, 0.63f), Vec3(2.43f, 0.37f, 1.37f)});
+  const Scene without_box = wall_scene(4.03f);
+  const Vec3 box_face(2.05f, 0.05f, 1.05f);
+  const Vec3 wall_behind_box(4.05f, 0.05f, 1.05f);
+  Stamp t = 0;
+
+  const DepthImage a = render(with_box, cam, home);
+  for (int i = 0; i < 6; ++i)
+    ASSERT_EQ(map->integrate(a.view, cam, home, t += kFrameNs), Status::kOk);
+  EXPECT_EQ(map->state(box_face), Occupancy::kOccupied);
+  EXPECT_EQ(map->state(wall_behind_box), Occupancy::kUnknown);  // occluded
+
+  // The object leaves while the camera looks away: the map keeps it (nothing observed it).
+  const DepthImage b = render(without_box, cam, away);
+  for (int i = 0; i < 4; ++i)
+    ASSERT_EQ(map->integrate(b.view, cam, away, t += kFrameNs), Status::kOk);
+  EXPECT_EQ(map->state(box_face), Occupancy::kOccupied);
+
+  // Back home: free rays now pass where the object was and clear it.
+  const DepthImage c = render(without_box, cam, home);
+  for (int i = 0; i < 8; ++i)
+    ASSERT_EQ(map->integrate(c.view, cam, home, t += kFrameNs), Status::kOk);
+  EXPECT_EQ(map->state(box_face), Occupancy::kFree);
+  EXPECT_EQ(map->state(Vec3(2.25f, 0.05f, 1.05f)), Occupancy::kFree);
+  EXPECT_EQ(map->state(wall_behind_box), Occupancy::kOccupied);
+  std::size_t left =
+      map->for_each_occupied_in_box(Box3{Vec3(1.9f, -0.5f, 0.5f), Vec3(2.6f, 0.5f, 1.5f)}, 100000,
+                                    [](OccupancyMap::VoxelKey, const Vec3&) {});
+  EXPECT_EQ(left, 0u);
+}
+
+// ---- fixed budget ----------------------------------------------------------------------------
+
+TEST(OccupancyMap, LongFlightWithTinyPoolNeverFailsNorGrows) {
+  OccupancyMapConfig cfg;
+  cfg.max_blocks = 48;
+  auto map = make_map(cfg);
+  const CameraIntrinsics cam = small_camera(80, 60);
+  Scene scene{{Plane{Vec3(0, 0, 0), Vec3(0, 0, 1)}, Plane{Vec3(0, 3.03f, 0), Vec3(0, 1, 0)}}, {}};
+  const std::size_t bytes = map->memory_bytes();
+  EXPECT_EQ(bytes, sizeof(OccupancyMap));
+  std::size_t evicted = 0;
+  for (int i = 0; i < 120; ++i) {
+    const Pose pose = make_pose(Vec3(0.5f * static_cast<float>(i), 0.f, 1.5f), 0.4f, 0.3f);
+    const DepthImage img = render(scene, cam, pose);
+    ASSERT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(i + 1) * kFrameNs),
+              Status::kOk)
+        << "frame " << i;
+    EXPECT_LE(map->blocks_in_use(), cfg.max_blocks);
+    EXPECT_EQ(map->memory_bytes(), bytes);
+    evicted += map->last_stats().blocks_evicted;
+  }
+  EXPECT_GT(evicted, 100u);
+  EXPECT_EQ(map->total_blocks_evicted(), evicted);
+  EXPECT_EQ(map->blocks_in_use(), cfg.max_blocks);
+  // The start of the flight was evicted and reads unknown; the current surroundings are mapped.
+  EXPECT_EQ(map->state(Vec3(2.05f, 0.55f, 0.05f)), Occupancy::kUnknown);
+  std::size_t occupied = 0;
+  map->for_each_occupied([&](OccupancyMap::VoxelKey, const Vec3& c) {
+    ++occupied;
+    EXPECT_GT(c.x(), 30.f);  // only near the current pose (x = 59.5)
+  });
+  EXPECT_GT(occupied, 0u);
+}
+
+TEST(OccupancyMap, WorkCapsBoundRaysAndVisits) {
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  const DepthImage img = render(wall_scene(4.03f), cam, pose);
+  {
+    OccupancyMapConfig cfg;
+    cfg.merge_rays_per_voxel = false;
+    cfg.max_rays_per_frame = 100;
+    auto map = make_map(cfg);
+    ASSERT_EQ(map->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
+    EXPECT_EQ(map->last_stats().rays, 100u);
+    EXPECT_EQ(map->last_stats().rays_dropped, map->last_stats().pixels_sampled - 100u);
+  }
+  {
+    OccupancyMapConfig cfg;
+    cfg.max_voxel_visits_per_frame = 1000;
+    auto map = make_map(cfg);
+    ASSERT_EQ(map->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
+    EXPECT_EQ(map->last_stats().voxel_visits, 1000u);
+    EXPECT_GT(map->last_stats().rays_dropped, 0u);
+  }
+}
+
+// ---- real-time: no allocation after init ----------------------------------------------------
+
+TEST(OccupancyMap, NoHeapAllocationInIntegrateOrQueries) {
+  auto map = make_map();
+  const CameraIntrinsics cam = small_camera();
+  Scene scene = wall_scene(3.03f);
+  scene.boxes.push_back(Box3{Vec3(1.5f, -0.3f, 0.5f), Vec3(1.9f, 0.3f, 1.2f)});
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.1f, 0.1f);
+  const DepthImage img = render(scene, cam, pose);
+  const Box3 box{Vec3(1.0f, -1.f, 0.f), Vec3(3.5f, 1.f, 2.f)};
+  std::size_t sink = 0;
+  {
+    test::AllocationGuard guard;
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(i + 1) * kFrameNs),
+                Status::kOk);
+    }
+    const Vec3 p(3.05f, 0.05f, 1.05f);
+    sink += static_cast<std::size_t>(map->state(p));
+    sink += static_cast<std::size_t>(map->state(map->key_of(p)));
+    sink += map->log_odds(p) > 0.f ? 1u : 0u;
+    sink += map->is_occupied(p) ? 1u : 0u;
+    Vec3 hit;
+    sink += map->first_occupied_on_segment(pose.translation, Vec3(4.f, 0.f, 1.f), &hit) ? 1u : 0u;
+    sink += map->for_each_occupied_in_box(
+        box, 100000, [&](OccupancyMap::VoxelKey k, const Vec3&) { sink += k & 1u; });
+    sink +=
+        map->clear_box(box, 100000, [&](OccupancyMap::VoxelKey k, const Vec3&) { sink += k & 1u; });
+    map->for_each_occupied([&](OccupancyMap::VoxelKey k, const Vec3&) { sink += k & 1u; });
+    EXPECT_EQ(map->set_log_odds(Vec3(0.55f, 0.55f, 0.55f), 2.f), Status::kOk);
+    sink += static_cast<std::size_t>(map->center_of(map->key_of(p)).x());
+    sink += map->checksum() & 1u;
+    sink += map->memory_bytes() + map->last_stats().rays;
+    sink += static_cast<std::size_t>(map->resolution() + map->occupied_log_odds());
+    EXPECT_EQ(guard.allocations(), 0u);
+    EXPECT_EQ(guard.deallocations(), 0u);
+  }
+  EXPECT_GT(sink, 0u);
+}
+
+// ---- bad input changes nothing --------------------------------------------------------------
+
+TEST(OccupancyMap, BadInputsReturnStatusAndLeaveMapUnchanged) {
+  auto map = std::make_unique<OccupancyMap>();
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  const DepthImage img = render(wall_scene(3.03f), cam, pose);
+  EXPECT_EQ(map->integrate(img.view, cam, pose, kFrameNs), Status::kNotInitialized);
+  ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
+  ASSERT_EQ(map->integrate(img.view, cam, pose, 10 * kFrameNs), Status::kOk);
+  const std::uint64_t sum = map->checksum();
+  const std::uint64_t frames = map->frames_integrated();
+  ASSERT_NE(sum, make_map()->checksum());
+
+  const auto expect_rejected = [&](const char* what, const DepthView& view,
+                                   const CameraIntrinsics& c, const Pose& p, Stamp t, Status want) {
+    SCOPED_TRACE(what);
+    EXPECT_EQ(map->integrate(view, c, p, t), want);
+    EXPECT_EQ(map->checksum(), sum);
+    EXPECT_EQ(map->frames_integrated(), frames);
+  };
+  const Stamp next = 11 * kFrameNs;
+  DepthView null_view = img.view;
+  null_view.data = nullptr;
+  expect_rejected("null data", null_view, cam, pose, next, Status::kNullData);
+  DepthView small = img.view;
+  small.width = cam.width - 2;
+  expect_rejected("wrong width", small, cam, pose, next, Status::kWrongSize);
+  DepthView short_stride = img.view;
+  short_stride.stride_bytes = 2;
+  expect_rejected("short stride", short_stride, cam, pose, next, Status::kWrongSize);
+  Pose nan_pose = pose;
+  nan_pose.translation.y() = std::numeric_limits<float>::quiet_NaN();
+  expect_rejected("nan translation", img.view, cam, nan_pose, next, Status::kNonFinite);
+  Pose inf_pose = pose;
+  inf_pose.rotation.w() = std::numeric_limits<float>::infinity();
+  expect_rejected("inf rotation", img.view, cam, inf_pose, next, Status::kNonFinite);
+  Pose scaled = pose;
+  scaled.rotation.coeffs() *= 1.05f;
+  expect_rejected("non-unit quaternion", img.view, cam, scaled, next, Status::kNonUnitQuaternion);
+  expect_rejected("same stamp", img.view, cam, pose, 10 * kFrameNs, Status::kTimeNotIncreasing);
+  expect_rejected("older stamp", img.view, cam, pose, 9 * kFrameNs, Status::kTimeNotIncreasing);
+  CameraIntrinsics bad_cam = cam;
+  bad_cam.fx = std::numeric_limits<float>::quiet_NaN();
+  expect_rejected("nan focal length", img.view, bad_cam, pose, next, Status::kInvalidArgument);
+
+  OccupancyMapConfig bad;
+  bad.max_blocks = kMaxMapBlocks + 1;
+  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
+  bad = OccupancyMapConfig{};
+  bad.prob_hit = 0.4f;
+  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
+  bad = OccupancyMapConfig{};
+  bad.resolution = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
+  EXPECT_EQ(map->checksum(), sum);
+  EXPECT_EQ(map->set_log_odds(Vec3(std::nanf(""), 0, 0), 1.f), Status::kNonFinite);
+  EXPECT_EQ(map->checksum(), sum);
+
+  // A slightly denormalised quaternion within tolerance is accepted.
+  Pose nearly = pose;
+  nearly.rotation.coeffs() *= 1.0005f;
+  EXPECT_EQ(map->integrate(img.view, cam, nearly, next), Status::kOk);
+}
+
+// ---- queries ---------------------------------------------------------------------------------
+
+TEST(OccupancyMap, SegmentQueryFindsTheWallAndMissesFreeSpace) {
+  auto map = make_map();
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  const DepthImage img = render(wall_scene(3.03f), cam, pose);
+  for (int i = 0; i < 2; ++i)
+    ASSERT_EQ(map->integrate(img.view, cam, pose, (i + 1) * kFrameNs), Status::kOk);
+
+  Vec3 hit(0, 0, 0);
+  ASSERT_TRUE(
+      map->first_occupied_on_segment(Vec3(0.f, 0.02f, 1.02f), Vec3(4.5f, 0.32f, 1.22f), &hit));
+  EXPECT_NEAR(hit.x(), 3.05f, 1e-4f);  // centre of the first wall voxel on the segment
+  const float y_at_wall = 0.02f + 0.3f * 3.0f / 4.5f;
+  EXPECT_NEAR(hit.y(), (std::floor(y_at_wall / 0.1f) + 0.5f) * 0.1f, 0.1f + 1e-4f);
+  // Reversed direction from behind the wall also stops at the wall (first voxel from b's side).
+  ASSERT_TRUE(
+      map->first_occupied_on_segment(Vec3(4.5f, 0.32f, 1.22f), Vec3(0.f, 0.02f, 1.02f), &hit));
+  EXPECT_NEAR(hit.x(), 3.05f, 1e-4f);
+  EXPECT_FALSE(map->first_occupied_on_segment(Vec3(0.5f, 0.f, 1.f), Vec3(2.8f, 0.5f, 1.3f), &hit));
+  EXPECT_FALSE(
+      map->first_occupied_on_segment(Vec3(2.5f, -1.f, 1.f), Vec3(2.5f, 1.f, 1.f), nullptr));
+
+  // Exact placement with a single voxel set by hand on a diagonal segment.
+  auto empty = make_map();
+  ASSERT_EQ(empty->set_log_odds(Vec3(1.25f, 1.25f, 1.25f), 3.f), Status::kOk);
+  ASSERT_TRUE(
+      empty->first_occupied_on_segment(Vec3(0.01f, 0.02f, 0.03f), Vec3(2.f, 2.f, 2.f), &hit));
+  EXPECT_TRUE(hit.isApprox(Vec3(1.25f, 1.25f, 1.25f), 1e-5f));
+  EXPECT_FALSE(
+      empty->first_occupied_on_segment(Vec3(0.01f, 0.02f, 0.03f), Vec3(1.1f, 1.1f, 1.1f), &hit));
+  EXPECT_FALSE(empty->first_occupied_on_segment(Vec3(0.f, 0.f, 0.f), Vec3(2.f, 0.f, 0.f), &hit));
+}
+
+TEST(OccupancyMap, ClearBoxFreesOnlyOccupiedVoxelsInsideTheBox) {
+  auto map = make_map();
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  const DepthImage img = render(wall_scene(3.03f), cam, pose);
+  for (int i = 0; i < 3; ++i)
+    ASSERT_EQ(map->integrate(img.view, cam, pose, (i + 1) * kFrameNs), Status::kOk);
+
+  std::set<OccupancyMap::VoxelKey> before;
+  map->for_each_occupied([&](OccupancyMap::VoxelKey k, const Vec3&) { before.insert(k); });
+  ASSERT_GT(before.size(), 100u);
+
+  // The box covers free space in front of the wall and part of the wall.
+  const Box3 box{Vec3(2.0f, -0.52f, 0.71f), Vec3(3.2f, 0.33f, 1.29f)};
+  std::set<OccupancyMap::VoxelKey> expected;
+  for (OccupancyMap::VoxelKey k : before) {
+    if (box.contains(map->center_of(k))) expected.insert(k);
+  }
+  ASSERT_GT(expected.size(), 20u);
+  ASSERT_LT(expected.size(), before.size());
+  std::set<OccupancyMap::VoxelKey> listed;
+  EXPECT_EQ(map->for_each_occupied_in_box(box, 1u << 20,
+                                          [&](OccupancyMap::VoxelKey k, const Vec3& c) {
+                                            EXPECT_TRUE(c.isApprox(map->center_of(k)));
+                                            listed.insert(k);
+                                          }),
+            expected.size());
+  EXPECT_EQ(listed, expected);
+
+  const float free_before = map->log_odds(Vec3(2.55f, 0.05f, 1.05f));
+  ASSERT_LT(free_before, 0.f);
+  std::set<OccupancyMap::VoxelKey> cleared;
+  const std::size_t n = map->clear_box(box, 1u << 20, [&](OccupancyMap::VoxelKey k, const Vec3& c) {
+    EXPECT_TRUE(box.contains(c));
+    cleared.insert(k);
+  });
+  EXPECT_EQ(n, expected.size());
+  EXPECT_EQ(cleared, expected);
+  for (OccupancyMap::VoxelKey k : before) {
+    EXPECT_EQ(map->state(k), expected.count(k) ? Occupancy::kFree : Occupancy::kOccupied);
+  }
+  EXPECT_EQ(map->log_odds(Vec3(2.55f, 0.05f, 1.05f)), free_before);  // free voxels untouched
+  EXPECT_EQ(map->clear_box(box, 1u << 20, [](OccupancyMap::VoxelKey, const Vec3&) {}), 0u);
+
+  // The budget bounds the work: a small budget examines (and clears) only part of the box.
+  const Box3 rest{Vec3(2.9f, -2.f, 0.f), Vec3(3.2f, 2.f, 2.f)};
+  const std::size_t partial = map->clear_box(rest, 300, [](OccupancyMap::VoxelKey, const Vec3&) {});
+  const std::size_t remaining =
+      map->for_each_occupied_in_box(rest, 1u << 20, [](OccupancyMap::VoxelKey, const Vec3&) {});
+  EXPECT_LT(partial, 300u);
+  EXPECT_GT(remaining, 0u);
+}
+
+TEST(OccupancyMap, KeysRoundTripAndMemoryIsTheObjectSize) {
+  auto map = make_map();
+  for (const Vec3& p :
+       {Vec3(0.f, 0.f, 0.f), Vec3(-0.05f, 0.15f, -12.34f), Vec3(1000.f, -999.f, 3.f)}) {
+    const Vec3 c = map->center_of(map->key_of(p));
+    EXPECT_LE((c - p).cwiseAbs().maxCoeff(), 0.05f + 1e-3f) << p.transpose();
+    EXPECT_EQ(map->key_of(c), map->key_of(p));
+  }
+  EXPECT_NE(map->key_of(Vec3(0.05f, 0.f, 0.f)), map->key_of(Vec3(-0.05f, 0.f, 0.f)));
+  EXPECT_EQ(map->memory_bytes(), sizeof(OccupancyMap));
+  EXPECT_FLOAT_EQ(map->resolution(), 0.1f);
+  EXPECT_NEAR(map->occupied_log_odds(), 1.386f, 1e-3f);
+  EXPECT_EQ(map->state(Vec3(1.f, 1.f, 1.f)), Occupancy::kUnknown);
+  EXPECT_EQ(map->log_odds(Vec3(1.f, 1.f, 1.f)), 0.f);
+  ASSERT_EQ(map->set_log_odds(Vec3(1.f, 1.f, 1.f), 100.f), Status::kOk);  // clamped
+  EXPECT_NEAR(map->log_odds(Vec3(1.f, 1.f, 1.f)), 3.476f, kQuantum);
+}
+
+}  // namespace
+}  // namespace dynamap
