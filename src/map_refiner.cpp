@@ -1,0 +1,119 @@
+#include "dynamap/map_refiner.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace dynamap {
+
+namespace {
+bool box_valid(const Box3& b) noexcept {
+  return b.min.allFinite() && b.max.allFinite() && (b.min.array() <= b.max.array()).all();
+}
+}  // namespace
+
+Status MapRefiner::init(const MapRefinerConfig& config) noexcept {
+  if (!std::isfinite(config.inflate) || config.inflate < 1.f || config.inflate > 10.f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(config.ground_height) || !std::isfinite(config.floor_margin) ||
+      config.floor_margin < 0.f) {
+    return Status::kInvalidArgument;
+  }
+  if (config.max_voxels_per_box < 1 || config.min_support_voxels < 1) {
+    return Status::kInvalidArgument;
+  }
+  config_ = config;
+  initialized_ = true;
+  stats_ = MapRefinerStats{};
+  return Status::kOk;
+}
+
+Status MapRefiner::set_ground_height(float z) noexcept {
+  if (!std::isfinite(z)) return Status::kNonFinite;
+  config_.ground_height = z;
+  return Status::kOk;
+}
+
+Status MapRefiner::refine(const OccupancyMap& map, const VoxelLookup& clean_history,
+                          Detection* detections, std::size_t count) noexcept {
+  if (!initialized_ || !map.initialized()) return Status::kNotInitialized;
+  if (count > 0 && detections == nullptr) return Status::kNullData;
+  for (std::size_t i = 0; i < count; ++i) {  // validate everything before changing anything
+    const Box3& b = detections[i].raw_box;
+    if (!b.min.allFinite() || !b.max.allFinite()) return Status::kNonFinite;
+    if (!box_valid(b)) return Status::kInvalidArgument;
+  }
+  stats_ = MapRefinerStats{};
+  for (std::size_t i = 0; i < count; ++i) refine_one(map, clean_history, detections[i]);
+  return Status::kOk;
+}
+
+void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
+                            Detection& d) noexcept {
+  Box3 search = d.raw_box.scaled(config_.inflate);
+  // The floor band is cut from the search box itself, so the voxel budget is not spent on it.
+  const float floor_top = config_.ground_height + config_.floor_margin;
+  search.min.z() = std::max(search.min.z(), floor_top);
+
+  const float res = map.resolution();
+  const float half = 0.5f * res;
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
+  std::size_t support = 0;
+  const auto add = [&](const Eigen::Vector3f& c) noexcept {
+    if (c.z() < floor_top) return;  // centre below the floor band (belt and braces)
+    lo = lo.cwiseMin(c);
+    hi = hi.cwiseMax(c);
+    ++support;
+  };
+
+  if (search.max.z() >= search.min.z()) {
+    // Voxels whose centres lie in the search box: index range per axis.
+    std::int64_t n_total = 1;
+    std::int64_t i0[3], i1[3];
+    for (int a = 0; a < 3; ++a) {
+      // Clamped to the map's key range so absurd (but finite) boxes cannot overflow.
+      constexpr float kLimit = static_cast<float>(OccupancyMap::kKeyHalfRange);
+      i0[a] = static_cast<std::int64_t>(std::max(std::ceil(search.min[a] / res - 0.5f), -kLimit));
+      i1[a] =
+          static_cast<std::int64_t>(std::min(std::floor(search.max[a] / res - 0.5f), kLimit - 1.f));
+      n_total *= std::max<std::int64_t>(0, i1[a] - i0[a] + 1);
+    }
+    const auto cap = static_cast<std::int64_t>(config_.max_voxels_per_box);
+    if (n_total > cap) ++stats_.truncated;
+
+    // Pass 1: occupied voxels, block-wise through the map (skips unallocated blocks).
+    map.for_each_occupied_in_box(search, config_.max_voxels_per_box,
+                                 [&](OccupancyMap::VoxelKey, const Eigen::Vector3f& c) { add(c); });
+
+    // Pass 2: voxels in the clean history count as occupied (they were freed on purpose).
+    if (!clean.empty() && n_total > 0) {
+      std::int64_t examined = 0;
+      for (std::int64_t k = i0[2]; k <= i1[2] && examined < cap; ++k) {
+        for (std::int64_t j = i0[1]; j <= i1[1] && examined < cap; ++j) {
+          for (std::int64_t i = i0[0]; i <= i1[0] && examined < cap; ++i, ++examined) {
+            const Eigen::Vector3f c((static_cast<float>(i) + 0.5f) * res,
+                                    (static_cast<float>(j) + 0.5f) * res,
+                                    (static_cast<float>(k) + 0.5f) * res);
+            if (clean.has(map.key_of(c))) add(c);
+          }
+        }
+      }
+    }
+  }
+
+  stats_.support_voxels += support;
+  if (support >= config_.min_support_voxels && support > 0) {
+    d.box = Box3{lo - Eigen::Vector3f::Constant(half), hi + Eigen::Vector3f::Constant(half)};
+    d.refined = true;
+    ++stats_.refined;
+  } else {
+    d.box = d.raw_box;
+    d.refined = false;
+    ++stats_.unrefined;
+  }
+}
+
+}  // namespace dynamap

@@ -1,0 +1,349 @@
+#include "dynamap/umap_detector.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <utility>
+
+namespace dynamap {
+
+namespace {
+bool finite_positive(float x) noexcept {
+  return std::isfinite(x) && x > 0.f;
+}
+
+bool config_valid(const UMapDetectorConfig& c) noexcept {
+  if (c.bins < 1 || c.bins > kMaxUMapBins) return false;
+  if (!std::isfinite(c.d_min) || !std::isfinite(c.d_max) || c.d_min < 0.f || c.d_max <= c.d_min) {
+    return false;
+  }
+  if (c.smoothing_radius < 0 || c.smoothing_radius > kMaxUMapSmoothingRadius) return false;
+  if (c.count_threshold < 1 || c.count_threshold > 65535) return false;
+  if (!std::isfinite(c.min_point_height) || c.min_point_height < 0.f) return false;
+  if (c.min_segment_length < 1 || c.min_segment_length > kMaxImageWidth) return false;
+  if (c.min_area < 1) return false;
+  if (!std::isfinite(c.band_factor) || c.band_factor < 1.f || c.band_factor > 10.f) return false;
+  if (!std::isfinite(c.row_fill_fraction) || c.row_fill_fraction < 0.f ||
+      c.row_fill_fraction > 1.f) {
+    return false;
+  }
+  if (c.max_row_gap < 0 || c.max_row_gap > kMaxImageHeight) return false;
+  if (c.min_run_rows < 1 || c.min_run_rows > kMaxImageHeight) return false;
+  if (!std::isfinite(c.max_width_fraction) || c.max_width_fraction <= 0.f ||
+      c.max_width_fraction > 1.f) {
+    return false;
+  }
+  if (!finite_positive(c.max_width) || !finite_positive(c.max_height)) return false;
+  if (c.max_candidates < 1) return false;
+  if (c.max_detections < 1 || c.max_detections > kMaxDetections) return false;
+  return true;
+}
+
+bool intrinsics_valid(const CameraIntrinsics& cam) noexcept {
+  return finite_positive(cam.fx) && finite_positive(cam.fy) && std::isfinite(cam.cx) &&
+         std::isfinite(cam.cy) && finite_positive(cam.depth_scale);
+}
+
+// Axis-aligned bounds of the 8 corners of `b` after the rigid transform.
+Box3 transform_box(const Box3& b, const Pose& T) noexcept {
+  Box3 r;
+  r.min.setConstant(std::numeric_limits<float>::max());
+  r.max.setConstant(std::numeric_limits<float>::lowest());
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3f c((i & 1) ? b.max.x() : b.min.x(), (i & 2) ? b.max.y() : b.min.y(),
+                            (i & 4) ? b.max.z() : b.min.z());
+    const Eigen::Vector3f p = T.apply(c);
+    r.min = r.min.cwiseMin(p);
+    r.max = r.max.cwiseMax(p);
+  }
+  return r;
+}
+}  // namespace
+
+Status UMapDetector::init(const UMapDetectorConfig& config) noexcept {
+  if (!config_valid(config)) return Status::kInvalidArgument;
+  config_ = config;
+  initialized_ = true;
+  stats_ = UMapDetectorStats{};
+  return Status::kOk;
+}
+
+Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
+                            const Pose& T_map_camera, DetectionList& out) noexcept {
+  if (!initialized_) return Status::kNotInitialized;
+  Status s = validate_depth(depth, cam);
+  if (!ok(s)) return s;
+  if (depth.width > kMaxImageWidth || depth.height > kMaxImageHeight) return Status::kWrongSize;
+  if (!intrinsics_valid(cam)) return Status::kInvalidArgument;
+  s = validate_pose(T_map_camera);
+  if (!ok(s)) return s;
+  UMapBinning binning;
+  s = make_umap_binning(config_.d_min, config_.d_max, cam.depth_scale, config_.bins, &binning);
+  if (!ok(s)) return s;
+  const UMapBuffer buffer{counts_.data(), kUMapStride, static_cast<int>(counts_.size())};
+  s = config_.use_fast_histogram ? umap_histogram_fast(depth, binning, buffer)
+                                 : umap_histogram_scalar(depth, binning, buffer);
+  if (!ok(s)) return s;  // e.g. misaligned depth data; nothing else touched yet
+
+  // From here on the call cannot fail.
+  binning_ = binning;
+  stats_ = UMapDetectorStats{};
+  out.clear();
+
+  for (int b = 0; b < binning_.bins; ++b) {
+    const float z = 0.5f * (binning_.bin_near_depth(b) + binning_.bin_far_depth(b));
+    const float metric = z > 0.f ? std::ceil(config_.min_point_height * cam.fy / z) : 65535.f;
+    const float t =
+        std::min(65535.f, std::max(static_cast<float>(config_.count_threshold), metric));
+    thresholds_[static_cast<std::size_t>(b)] = static_cast<std::uint16_t>(t);
+  }
+  extract_segments(depth.width);
+  build_groups();
+
+  std::size_t searched = 0;
+  for (std::size_t gi = 0; gi < group_count_; ++gi) {
+    const Group& g = groups_[gi];
+    if (g.area < config_.min_area) {
+      ++stats_.rejected_area;
+      continue;
+    }
+    const int width_px = g.u1 - g.u0 + 1;
+    const float near = binning_.bin_near_depth(g.b0);
+    if (static_cast<float>(width_px) >=
+            config_.max_width_fraction * static_cast<float>(depth.width) ||
+        static_cast<float>(width_px) * near / cam.fx > config_.max_width) {
+      ++stats_.rejected_size;
+      continue;
+    }
+    if (searched >= config_.max_candidates) {
+      ++stats_.candidates_dropped;
+      continue;
+    }
+    ++searched;
+    Box3 box_cam;
+    ImageBox ibox;
+    float near_depth = 0.f;
+    if (!measure_group(g, depth, cam, &box_cam, &ibox, &near_depth)) {
+      ++stats_.rejected_height;
+      continue;
+    }
+    const Eigen::Vector3f size = box_cam.size();
+    if (size.x() > config_.max_width || size.y() > config_.max_height) {
+      ++stats_.rejected_size;
+      continue;
+    }
+    if (out.size() >= config_.max_detections) {
+      ++stats_.detections_dropped;
+      continue;
+    }
+    Detection* d = out.emplace_back();
+    if (d == nullptr) {
+      ++stats_.detections_dropped;
+      continue;
+    }
+    d->box = transform_box(box_cam, T_map_camera);
+    d->raw_box = d->box;
+    d->image_box = ibox;
+    d->near_depth = near_depth;
+    d->refined = false;
+  }
+  stats_.detections = out.size();
+  return Status::kOk;
+}
+
+void UMapDetector::extract_segments(int width) noexcept {
+  segment_count_ = 0;
+  const int bins = binning_.bins;
+  const int r = config_.smoothing_radius;
+  const int min_len = config_.min_segment_length;
+  for (int b = 0; b < bins; ++b) {
+    bin_first_segment_[static_cast<std::size_t>(b)] = static_cast<int>(segment_count_);
+    // Smoothed counts of this bin row: sum over bins [b-r, b+r] (max 9 * 480, fits uint16).
+    const int k0 = std::max(0, b - r);
+    const int k1 = std::min(bins - 1, b + r);
+    std::uint16_t* sum = row_sum_.data();
+    const std::uint16_t* first = counts_.data() + static_cast<std::ptrdiff_t>(k0) * kUMapStride;
+    for (int u = 0; u < width; ++u) sum[u] = first[u];
+    for (int k = k0 + 1; k <= k1; ++k) {
+      const std::uint16_t* row = counts_.data() + static_cast<std::ptrdiff_t>(k) * kUMapStride;
+      for (int u = 0; u < width; ++u) sum[u] = static_cast<std::uint16_t>(sum[u] + row[u]);
+    }
+    const std::uint16_t thr = thresholds_[static_cast<std::size_t>(b)];
+    int u = 0;
+    while (u < width) {
+      if (sum[u] < thr) {
+        ++u;
+        continue;
+      }
+      const int start = u;
+      while (u < width && sum[u] >= thr) ++u;
+      if (u - start < min_len) continue;
+      if (segment_count_ >= kMaxUMapSegments) {
+        ++stats_.segments_dropped;
+        continue;
+      }
+      const auto idx = static_cast<std::int16_t>(segment_count_);
+      segments_[segment_count_++] =
+          Segment{static_cast<std::int16_t>(start), static_cast<std::int16_t>(u - 1),
+                  static_cast<std::int16_t>(b), idx};
+    }
+  }
+  bin_first_segment_[static_cast<std::size_t>(bins)] = static_cast<int>(segment_count_);
+  stats_.segments = segment_count_;
+}
+
+int UMapDetector::find_root(int i) noexcept {
+  while (segments_[static_cast<std::size_t>(i)].parent != i) {
+    Segment& s = segments_[static_cast<std::size_t>(i)];
+    s.parent = segments_[static_cast<std::size_t>(s.parent)].parent;  // path halving
+    i = s.parent;
+  }
+  return i;
+}
+
+void UMapDetector::unite(int a, int b) noexcept {
+  a = find_root(a);
+  b = find_root(b);
+  if (a == b) return;
+  // The earlier segment (nearer bin) stays the root.
+  if (b < a) std::swap(a, b);
+  segments_[static_cast<std::size_t>(b)].parent = static_cast<std::int16_t>(a);
+}
+
+void UMapDetector::build_groups() noexcept {
+  const int bins = binning_.bins;
+  // Connect segments of adjacent bin rows whose column ranges overlap (two-pointer sweep; the
+  // segments of one bin row are sorted by column).
+  for (int b = 1; b < bins; ++b) {
+    int i = bin_first_segment_[static_cast<std::size_t>(b - 1)];
+    const int i_end = bin_first_segment_[static_cast<std::size_t>(b)];
+    int j = i_end;
+    const int j_end = bin_first_segment_[static_cast<std::size_t>(b + 1)];
+    while (i < i_end && j < j_end) {
+      const Segment& p = segments_[static_cast<std::size_t>(i)];
+      const Segment& c = segments_[static_cast<std::size_t>(j)];
+      if (p.u0 <= c.u1 && c.u0 <= p.u1) unite(i, j);
+      if (p.u1 < c.u1) {
+        ++i;
+      } else {
+        ++j;
+      }
+    }
+  }
+  // Groups are numbered in order of their first segment, i.e. by nearest bin.
+  group_count_ = 0;
+  for (std::size_t i = 0; i < segment_count_; ++i) group_of_root_[i] = -1;
+  for (std::size_t i = 0; i < segment_count_; ++i) {
+    const Segment& s = segments_[i];
+    const auto root = static_cast<std::size_t>(find_root(static_cast<int>(i)));
+    if (group_of_root_[root] < 0) {
+      group_of_root_[root] = static_cast<std::int16_t>(group_count_);
+      groups_[group_count_++] = Group{s.u0, s.u1, s.bin, s.bin, 0};
+    }
+    Group& g = groups_[static_cast<std::size_t>(group_of_root_[root])];
+    g.u0 = std::min<int>(g.u0, s.u0);
+    g.u1 = std::max<int>(g.u1, s.u1);
+    g.b0 = std::min<int>(g.b0, s.bin);
+    g.b1 = std::max<int>(g.b1, s.bin);
+    g.area += s.u1 - s.u0 + 1;
+  }
+  stats_.groups = group_count_;
+}
+
+bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
+                                 const CameraIntrinsics& cam, Box3* box_cam, ImageBox* ibox,
+                                 float* near_depth) noexcept {
+  const int u0 = std::max(0, g.u0);
+  const int u1 = std::min(depth.width - 1, g.u1);
+  if (u1 < u0) return false;
+  // Depth band [near, near + band_factor * extent] in raw units (integer compares per pixel).
+  const std::uint32_t raw_lo = binning_.bin_first_raw(g.b0);
+  const std::uint32_t ext = binning_.bin_first_raw(g.b1 + 1) - raw_lo;
+  const std::uint32_t band = std::max<std::uint32_t>(
+      1u, static_cast<std::uint32_t>(config_.band_factor * static_cast<float>(ext)));
+  const std::uint32_t raw_hi = std::min<std::uint32_t>(65535u, raw_lo + band - 1u);
+
+  // Pass 1: in-band pixels per image row over the group's columns (all reads inside the image).
+  for (int v = 0; v < depth.height; ++v) {
+    const std::uint16_t* row = depth.row(v);
+    int n = 0;
+    for (int u = u0; u <= u1; ++u) {
+      const std::uint32_t d = row[u];
+      n += (d >= raw_lo && d <= raw_hi) ? 1 : 0;
+    }
+    row_hits_[static_cast<std::size_t>(v)] = static_cast<std::uint16_t>(n);
+  }
+  const int need = std::max(
+      1, static_cast<int>(std::ceil(config_.row_fill_fraction * static_cast<float>(u1 - u0 + 1))));
+  // Longest run of hit rows, bridging gaps of up to max_row_gap rows.
+  int best_start = -1, best_end = -1, run_start = -1, last_hit = -1;
+  for (int v = 0; v < depth.height; ++v) {
+    if (row_hits_[static_cast<std::size_t>(v)] < need) continue;
+    if (run_start < 0 || v - last_hit - 1 > config_.max_row_gap) run_start = v;
+    last_hit = v;
+    if (best_start < 0 || last_hit - run_start > best_end - best_start) {
+      best_start = run_start;
+      best_end = last_hit;
+    }
+  }
+  if (best_start < 0 || best_end - best_start + 1 < config_.min_run_rows) return false;
+
+  // Pass 2: mean in-band depth per column and per row. Each column (row) of the box is placed
+  // at its own mean depth: exact for front and side faces, and depth noise averages out instead
+  // of stretching the box by the extreme pixels.
+  for (int u = u0; u <= u1; ++u) {
+    col_depth_sum_[static_cast<std::size_t>(u)] = 0;
+    col_count_[static_cast<std::size_t>(u)] = 0;
+  }
+  for (int v = best_start; v <= best_end; ++v) {
+    const std::uint16_t* row = depth.row(v);
+    std::uint32_t row_sum = 0;
+    for (int u = u0; u <= u1; ++u) {
+      const std::uint32_t d = row[u];
+      const bool in = d >= raw_lo && d <= raw_hi;
+      const std::uint32_t dd = in ? d : 0u;
+      col_depth_sum_[static_cast<std::size_t>(u)] += dd;
+      col_count_[static_cast<std::size_t>(u)] =
+          static_cast<std::uint16_t>(col_count_[static_cast<std::size_t>(u)] + (in ? 1 : 0));
+      row_sum += dd;
+    }
+    row_depth_sum_[static_cast<std::size_t>(v)] = row_sum;
+  }
+  // Tight box over pixel footprints ([u - 0.5, u + 0.5]); x, y scaled by fx, fy at the end.
+  const float big = std::numeric_limits<float>::max();
+  float xs_min = big, xs_max = -big, ys_min = big, ys_max = -big, z_near = big, z_far = -big;
+  int pu0 = u1, pu1 = u0;
+  for (int u = u0; u <= u1; ++u) {
+    const std::uint16_t n = col_count_[static_cast<std::size_t>(u)];
+    if (n == 0) continue;
+    const float z = static_cast<float>(col_depth_sum_[static_cast<std::size_t>(u)]) /
+                    static_cast<float>(n) * cam.depth_scale;
+    const float ut = static_cast<float>(u) - 0.5f - cam.cx;
+    xs_min = std::min(xs_min, ut * z);
+    xs_max = std::max(xs_max, (ut + 1.f) * z);
+    z_near = std::min(z_near, z);
+    z_far = std::max(z_far, z);
+    pu0 = std::min(pu0, u);
+    pu1 = std::max(pu1, u);
+  }
+  if (pu1 < pu0) return false;
+  for (int v = best_start; v <= best_end; ++v) {
+    const std::uint16_t n = row_hits_[static_cast<std::size_t>(v)];
+    if (n == 0) continue;
+    const float z = static_cast<float>(row_depth_sum_[static_cast<std::size_t>(v)]) /
+                    static_cast<float>(n) * cam.depth_scale;
+    const float vt = static_cast<float>(v) - 0.5f - cam.cy;
+    ys_min = std::min(ys_min, vt * z);
+    ys_max = std::max(ys_max, (vt + 1.f) * z);
+  }
+  if (ys_max < ys_min) return false;
+  box_cam->min = Eigen::Vector3f(xs_min / cam.fx, ys_min / cam.fy, z_near);
+  box_cam->max = Eigen::Vector3f(xs_max / cam.fx, ys_max / cam.fy, z_far);
+  *ibox = ImageBox{pu0, best_start, pu1, best_end};
+  *near_depth = z_near;
+  return true;
+}
+
+}  // namespace dynamap

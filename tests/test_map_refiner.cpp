@@ -1,0 +1,201 @@
+// MapRefiner against a real OccupancyMap: shrinking an inflated noisy box to the occupied voxels,
+// the clean history counting as occupied, the floor band ignored, no support -> raw box kept,
+// bounded work, bad input, zero allocations.
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "alloc_guard.hpp"
+#include "dynamap/fixed_hash_map.hpp"
+#include "dynamap/map_refiner.hpp"
+#include "dynamap/occupancy_map.hpp"
+
+namespace dynamap {
+namespace {
+
+using CleanSet = FixedHashSet<std::uint64_t, 4096>;
+
+VoxelLookup lookup_of(const CleanSet& set) {
+  return VoxelLookup{&set, [](const void* ctx, std::uint64_t key) noexcept {
+                       return static_cast<const CleanSet*>(ctx)->contains(key);
+                     }};
+}
+
+constexpr float kOccupied = 2.5f;  // log-odds above the 1.386 threshold
+
+// Marks every voxel whose centre lies in [lo, hi) (metres) as occupied; optionally records
+// them in `keys` instead (clean history) without marking them.
+void fill(OccupancyMap& map, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+          CleanSet* keys = nullptr) {
+  const float r = map.resolution();
+  for (float z = lo.z() + 0.5f * r; z < hi.z(); z += r) {
+    for (float y = lo.y() + 0.5f * r; y < hi.y(); y += r) {
+      for (float x = lo.x() + 0.5f * r; x < hi.x(); x += r) {
+        const Eigen::Vector3f c(x, y, z);
+        if (keys != nullptr) {
+          ASSERT_EQ(keys->insert(map.key_of(c)), Status::kOk);
+          ASSERT_EQ(map.set_log_odds(c, -2.f), Status::kOk);  // freed by the cleaner
+        } else {
+          ASSERT_EQ(map.set_log_odds(c, kOccupied), Status::kOk);
+        }
+      }
+    }
+  }
+}
+
+void expect_box(const Box3& b, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
+  EXPECT_TRUE(b.min.isApprox(lo, 1e-4f)) << b.min.transpose() << " vs " << lo.transpose();
+  EXPECT_TRUE(b.max.isApprox(hi, 1e-4f)) << b.max.transpose() << " vs " << hi.transpose();
+}
+
+class MapRefinerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    map = std::make_unique<OccupancyMap>();
+    ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
+    // Floor: one voxel layer z in [0, 0.1) over 4 x 4 m.
+    fill(*map, Eigen::Vector3f(0.f, -2.f, 0.f), Eigen::Vector3f(4.f, 2.f, 0.1f));
+    // The obstacle, standing on the floor: x [2.0, 2.5], y [-0.3, 0.3], z [0.1, 1.2].
+    fill(*map, Eigen::Vector3f(2.0f, -0.3f, 0.1f), Eigen::Vector3f(2.5f, 0.3f, 1.2f));
+    // A neighbour outside the inflated box.
+    fill(*map, Eigen::Vector3f(3.3f, -0.2f, 0.1f), Eigen::Vector3f(3.6f, 0.2f, 1.0f));
+    ASSERT_EQ(refiner.init(MapRefinerConfig{}), Status::kOk);
+  }
+  Detection noisy_detection() const {
+    Detection d;
+    // Raw box: too large and shifted, as a noisy depth detection would be.
+    d.raw_box = Box3{Eigen::Vector3f(1.93f, -0.41f, 0.05f), Eigen::Vector3f(2.56f, 0.36f, 1.31f)};
+    d.box = d.raw_box;
+    return d;
+  }
+  std::unique_ptr<OccupancyMap> map;
+  MapRefiner refiner;
+};
+
+TEST_F(MapRefinerTest, ShrinksNoisyBoxToOccupiedVoxelsAndIgnoresFloor) {
+  Detection d = noisy_detection();
+  const Box3 raw = d.raw_box;
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, &d, 1), Status::kOk);
+  EXPECT_TRUE(d.refined);
+  // Voxels with centres below ground + 0.2 m (the floor layer and the obstacle's bottom voxel
+  // at z 0.15) are ignored, so the refined box starts at z = 0.2.
+  expect_box(d.box, Eigen::Vector3f(2.0f, -0.3f, 0.2f), Eigen::Vector3f(2.5f, 0.3f, 1.2f));
+  EXPECT_EQ(d.raw_box.min, raw.min);  // raw box kept for the caller
+  EXPECT_EQ(d.raw_box.max, raw.max);
+  EXPECT_EQ(refiner.last_stats().refined, 1u);
+}
+
+TEST_F(MapRefinerTest, FloorCountsWhenGroundIsLower) {
+  // Same map, ground declared 1 m lower: now the floor layer is support and widens the box.
+  ASSERT_EQ(refiner.set_ground_height(-1.f), Status::kOk);
+  Detection d = noisy_detection();
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, &d, 1), Status::kOk);
+  EXPECT_LT(d.box.min.z(), 0.11f);
+  EXPECT_LT(d.box.min.y(), -0.35f);  // floor voxels inside the inflated box
+}
+
+TEST_F(MapRefinerTest, HonoursCleanHistory) {
+  // The obstacle's top (z 0.8 .. 1.5) was freed by dynamic-region cleaning and remembered.
+  CleanSet clean;
+  fill(*map, Eigen::Vector3f(2.0f, -0.3f, 0.8f), Eigen::Vector3f(2.5f, 0.3f, 1.2f), &clean);
+  Detection with = noisy_detection(), without = noisy_detection();
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, &without, 1), Status::kOk);
+  expect_box(without.box, Eigen::Vector3f(2.0f, -0.3f, 0.2f), Eigen::Vector3f(2.5f, 0.3f, 0.8f));
+  ASSERT_EQ(refiner.refine(*map, lookup_of(clean), &with, 1), Status::kOk);
+  expect_box(with.box, Eigen::Vector3f(2.0f, -0.3f, 0.2f), Eigen::Vector3f(2.5f, 0.3f, 1.2f));
+  // History voxels outside the inflated box do not count.
+  CleanSet far;
+  fill(*map, Eigen::Vector3f(2.0f, 1.0f, 0.5f), Eigen::Vector3f(2.2f, 1.2f, 0.7f), &far);
+  Detection d = noisy_detection();
+  ASSERT_EQ(refiner.refine(*map, lookup_of(far), &d, 1), Status::kOk);
+  EXPECT_LT(d.box.max.y(), 0.31f);
+}
+
+TEST_F(MapRefinerTest, NoSupportKeepsRawBoxUnrefined) {
+  FixedVector<Detection, kMaxDetections> dets;
+  Detection empty_space;
+  empty_space.raw_box = Box3{Eigen::Vector3f(-3.f, 3.f, 0.5f), Eigen::Vector3f(-2.5f, 3.5f, 1.5f)};
+  empty_space.box = Box3{};  // whatever was there is replaced by the raw box
+  ASSERT_EQ(dets.push_back(noisy_detection()), Status::kOk);
+  ASSERT_EQ(dets.push_back(empty_space), Status::kOk);
+  Detection only_floor;  // a box on the floor band only: floor is not support
+  only_floor.raw_box = Box3{Eigen::Vector3f(0.5f, -1.f, 0.f), Eigen::Vector3f(1.f, -0.5f, 0.12f)};
+  ASSERT_EQ(dets.push_back(only_floor), Status::kOk);
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, dets), Status::kOk);
+  EXPECT_TRUE(dets[0].refined);
+  EXPECT_FALSE(dets[1].refined);
+  EXPECT_EQ(dets[1].box.min, empty_space.raw_box.min);
+  EXPECT_EQ(dets[1].box.max, empty_space.raw_box.max);
+  EXPECT_FALSE(dets[2].refined);
+  EXPECT_EQ(refiner.last_stats().refined, 1u);
+  EXPECT_EQ(refiner.last_stats().unrefined, 2u);
+}
+
+TEST_F(MapRefinerTest, MinSupportVoxels) {
+  MapRefinerConfig cfg;
+  cfg.min_support_voxels = 10000;  // more than the obstacle has
+  ASSERT_EQ(refiner.init(cfg), Status::kOk);
+  Detection d = noisy_detection();
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, &d, 1), Status::kOk);
+  EXPECT_FALSE(d.refined);
+}
+
+TEST_F(MapRefinerTest, WorkIsBoundedPerBox) {
+  MapRefinerConfig cfg;
+  cfg.max_voxels_per_box = 64;
+  ASSERT_EQ(refiner.init(cfg), Status::kOk);
+  CleanSet clean;
+  ASSERT_EQ(clean.insert(12345u), Status::kOk);
+  Detection huge;
+  huge.raw_box = Box3{Eigen::Vector3f(-1e6f, -1e6f, -1e6f), Eigen::Vector3f(1e6f, 1e6f, 1e6f)};
+  ASSERT_EQ(refiner.refine(*map, lookup_of(clean), &huge, 1), Status::kOk);
+  EXPECT_EQ(refiner.last_stats().truncated, 1u);
+  Detection d = noisy_detection();
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, &d, 1), Status::kOk);
+  EXPECT_EQ(refiner.last_stats().truncated, 1u);  // ~750 voxels in the inflated box > 64
+  EXPECT_LE(refiner.last_stats().support_voxels, 64u);
+}
+
+TEST_F(MapRefinerTest, BadInputChangesNothing) {
+  Detection d[2] = {noisy_detection(), noisy_detection()};
+  d[1].raw_box.max.x() = NAN;
+  const Box3 before = d[0].box;
+  EXPECT_EQ(refiner.refine(*map, VoxelLookup{}, d, 2), Status::kNonFinite);
+  EXPECT_EQ(d[0].box.min, before.min);  // the valid first detection was not refined either
+  EXPECT_FALSE(d[0].refined);
+  d[1] = noisy_detection();
+  std::swap(d[1].raw_box.min, d[1].raw_box.max);
+  EXPECT_EQ(refiner.refine(*map, VoxelLookup{}, d, 2), Status::kInvalidArgument);
+  EXPECT_EQ(refiner.refine(*map, VoxelLookup{}, nullptr, 2), Status::kNullData);
+  EXPECT_FALSE(d[0].refined);
+
+  MapRefiner fresh;
+  EXPECT_EQ(fresh.refine(*map, VoxelLookup{}, d, 1), Status::kNotInitialized);
+  auto empty_map = std::make_unique<OccupancyMap>();
+  EXPECT_EQ(refiner.refine(*empty_map, VoxelLookup{}, d, 1), Status::kNotInitialized);
+
+  MapRefinerConfig bad;
+  bad.inflate = 0.9f;
+  EXPECT_EQ(refiner.init(bad), Status::kInvalidArgument);
+  bad = {};
+  bad.max_voxels_per_box = 0;
+  EXPECT_EQ(refiner.init(bad), Status::kInvalidArgument);
+  EXPECT_EQ(refiner.set_ground_height(NAN), Status::kNonFinite);
+  EXPECT_FLOAT_EQ(refiner.config().inflate, 1.15f);
+  EXPECT_FLOAT_EQ(refiner.config().ground_height, 0.f);
+}
+
+TEST_F(MapRefinerTest, ZeroAllocations) {
+  CleanSet clean;
+  fill(*map, Eigen::Vector3f(2.0f, -0.3f, 0.8f), Eigen::Vector3f(2.5f, 0.3f, 1.2f), &clean);
+  FixedVector<Detection, kMaxDetections> dets;
+  for (int i = 0; i < 5; ++i) ASSERT_EQ(dets.push_back(noisy_detection()), Status::kOk);
+  const VoxelLookup lookup = lookup_of(clean);
+  test::AllocationGuard guard;
+  ASSERT_EQ(refiner.refine(*map, lookup, dets), Status::kOk);
+  EXPECT_EQ(guard.allocations(), 0u);
+  EXPECT_EQ(refiner.last_stats().refined, 5u);
+}
+
+}  // namespace
+}  // namespace dynamap
