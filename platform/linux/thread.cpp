@@ -11,12 +11,17 @@ namespace dynamap::platform {
 namespace {
 Status from_errno(int err) noexcept {
   switch (err) {
-    case 0: return Status::kOk;
+    case 0:
+      return Status::kOk;
     case EPERM:
-    case EACCES: return Status::kPermissionDenied;
-    case EINVAL: return Status::kInvalidArgument;
-    case ENOSYS: return Status::kUnsupported;
-    default: return Status::kSystemError;
+    case EACCES:
+      return Status::kPermissionDenied;
+    case EINVAL:
+      return Status::kInvalidArgument;
+    case ENOSYS:
+      return Status::kUnsupported;
+    default:
+      return Status::kSystemError;
   }
 }
 }  // namespace
@@ -48,7 +53,15 @@ Status set_fifo_priority(int priority) noexcept {
 }
 
 Status lock_memory() noexcept {
-  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) return from_errno(errno);
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+    // ENOMEM here means "over RLIMIT_MEMLOCK" for an unprivileged process: a privilege matter.
+    return errno == ENOMEM ? Status::kPermissionDenied : from_errno(errno);
+  }
+  return Status::kOk;
+}
+
+Status unlock_memory() noexcept {
+  if (munlockall() != 0) return from_errno(errno);
   return Status::kOk;
 }
 
