@@ -19,10 +19,10 @@ std::uint64_t stress_items(std::uint64_t native) {
     if (v > 0) return v;
   }
 #if defined(__SANITIZE_THREAD__)
-  return native / 8;
+  return native / 4;
 #elif defined(__has_feature)
 #if __has_feature(thread_sanitizer)
-  return native / 8;
+  return native / 4;
 #endif
 #endif
   return native;

@@ -13,7 +13,7 @@
 namespace dynamap {
 namespace {
 
-// Items for the two-thread stress tests: >= 1 million natively, fewer under TSan (~20x slower)
+// Items for the two-thread stress tests: >= 1 million natively, a quarter under TSan
 // or when DYNAMAP_STRESS_ITEMS says so (the aarch64 build sets it for qemu).
 std::uint64_t stress_items(std::uint64_t native) {
   if (const char* env = std::getenv("DYNAMAP_STRESS_ITEMS")) {
@@ -21,10 +21,10 @@ std::uint64_t stress_items(std::uint64_t native) {
     if (v > 0) return v;
   }
 #if defined(__SANITIZE_THREAD__)
-  return native / 8;
+  return native / 4;
 #elif defined(__has_feature)
 #if __has_feature(thread_sanitizer)
-  return native / 8;
+  return native / 4;
 #endif
 #endif
   return native;
