@@ -42,18 +42,18 @@ class SpscRing {
 
   /// Copies `v` into the ring. kCapacityExceeded (and one drop counted) when full.
   Status try_push(const T& v) noexcept(std::is_nothrow_copy_assignable<T>::value) {
-    T* slot = try_begin_push();
-    if (slot == nullptr) return Status::kCapacityExceeded;
-    *slot = v;
-    commit_push();
+    const std::size_t head = head_.load(std::memory_order_relaxed);  // only we write head_
+    if (!has_room(head)) return Status::kCapacityExceeded;
+    slots_[head & kMask] = v;
+    head_.store(head + 1, std::memory_order_release);
     return Status::kOk;
   }
   /// Moves `v` into the ring. kCapacityExceeded (and one drop counted) when full; `v` untouched.
   Status try_push(T&& v) noexcept(std::is_nothrow_move_assignable<T>::value) {
-    T* slot = try_begin_push();
-    if (slot == nullptr) return Status::kCapacityExceeded;
-    *slot = std::move(v);
-    commit_push();
+    const std::size_t head = head_.load(std::memory_order_relaxed);
+    if (!has_room(head)) return Status::kCapacityExceeded;
+    slots_[head & kMask] = std::move(v);
+    head_.store(head + 1, std::memory_order_release);
     return Status::kOk;
   }
 
@@ -62,19 +62,8 @@ class SpscRing {
   /// whatever an earlier element left there, so overwrite every field you use. Calling it again
   /// before commit_push() returns the same slot.
   T* try_begin_push() noexcept {
-    const std::size_t head = head_.load(std::memory_order_relaxed);  // only we write head_
-    if (head - producer_.cached_tail == Capacity) {
-      // Acquire pairs with the consumer's release of tail_: its reads of the slot we are about
-      // to overwrite are complete before we write.
-      producer_.cached_tail = tail_.load(std::memory_order_acquire);
-      if (head - producer_.cached_tail == Capacity) {
-        // Single writer: a load + store is enough and avoids a locked read-modify-write.
-        producer_.drops.store(producer_.drops.load(std::memory_order_relaxed) + 1,
-                              std::memory_order_relaxed);
-        return nullptr;
-      }
-    }
-    return &slots_[head & kMask];
+    const std::size_t head = head_.load(std::memory_order_relaxed);
+    return has_room(head) ? &slots_[head & kMask] : nullptr;
   }
 
   /// Slot API, step 2: publishes the slot returned by the last successful try_begin_push().
@@ -90,16 +79,19 @@ class SpscRing {
 
   /// Moves the oldest element into `out`. kEmpty (and `out` untouched) when the ring is empty.
   Status try_pop(T& out) noexcept(std::is_nothrow_move_assignable<T>::value) {
-    T* front = front_slot();
-    if (front == nullptr) return Status::kEmpty;
-    out = std::move(*front);
-    pop_front();
+    const std::size_t tail = tail_.load(std::memory_order_relaxed);  // only we write tail_
+    if (!has_data(tail)) return Status::kEmpty;
+    out = std::move(slots_[tail & kMask]);
+    tail_.store(tail + 1, std::memory_order_release);
     return Status::kOk;
   }
 
   /// Slot API: the oldest element, read in place, or nullptr when empty. It stays valid and
   /// unchanged until pop_front().
-  const T* try_front() noexcept { return front_slot(); }
+  const T* try_front() noexcept {
+    const std::size_t tail = tail_.load(std::memory_order_relaxed);
+    return has_data(tail) ? &slots_[tail & kMask] : nullptr;
+  }
 
   /// Releases the element returned by try_front() back to the producer.
   /// Precondition: the last try_front() returned non-null and nothing was popped since.
@@ -126,14 +118,27 @@ class SpscRing {
  private:
   static constexpr std::size_t kMask = Capacity - 1;
 
-  T* front_slot() noexcept {
-    const std::size_t tail = tail_.load(std::memory_order_relaxed);
-    if (tail == consumer_.cached_head) {
-      // Acquire pairs with the producer's release of head_: the slot's contents are visible.
-      consumer_.cached_head = head_.load(std::memory_order_acquire);
-      if (tail == consumer_.cached_head) return nullptr;
-    }
-    return &slots_[tail & kMask];
+  // Producer: true when slot `head` is free; refreshes the cached tail only when the ring looks
+  // full, and counts a drop when it really is.
+  bool has_room(std::size_t head) noexcept {
+    if (head - producer_.cached_tail != Capacity) return true;
+    // Acquire pairs with the consumer's release of tail_: its reads of the slot we are about to
+    // overwrite are complete before we write.
+    producer_.cached_tail = tail_.load(std::memory_order_acquire);
+    if (head - producer_.cached_tail != Capacity) return true;
+    // Single writer: a load + store is enough and avoids a locked read-modify-write.
+    producer_.drops.store(producer_.drops.load(std::memory_order_relaxed) + 1,
+                          std::memory_order_relaxed);
+    return false;
+  }
+
+  // Consumer: true when slot `tail` holds an element; refreshes the cached head only when the
+  // ring looks empty.
+  bool has_data(std::size_t tail) noexcept {
+    if (tail != consumer_.cached_head) return true;
+    // Acquire pairs with the producer's release of head_: the slot's contents are visible.
+    consumer_.cached_head = head_.load(std::memory_order_acquire);
+    return tail != consumer_.cached_head;
   }
 
   // Indices run freely (never wrapped to Capacity); unsigned differences stay correct across
