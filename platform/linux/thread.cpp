@@ -48,7 +48,15 @@ Status set_fifo_priority(int priority) noexcept {
 }
 
 Status lock_memory() noexcept {
-  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) return from_errno(errno);
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+    // ENOMEM here means "over RLIMIT_MEMLOCK" for an unprivileged process: a privilege matter.
+    return errno == ENOMEM ? Status::kPermissionDenied : from_errno(errno);
+  }
+  return Status::kOk;
+}
+
+Status unlock_memory() noexcept {
+  if (munlockall() != 0) return from_errno(errno);
   return Status::kOk;
 }
 

@@ -14,6 +14,10 @@ namespace dynamap::platform {
 /// Switches the calling thread to SCHED_FIFO with the given priority (1..99).
 [[nodiscard]] Status set_fifo_priority(int priority) noexcept;
 /// Locks all current and future pages of the process in RAM (no page faults later).
+/// kPermissionDenied without CAP_IPC_LOCK or when RLIMIT_MEMLOCK is too small. Do not use it in
+/// sanitizer builds: their huge shadow mappings would all be locked.
 [[nodiscard]] Status lock_memory() noexcept;
+/// Undoes lock_memory() (munlockall).
+[[nodiscard]] Status unlock_memory() noexcept;
 
 }  // namespace dynamap::platform
