@@ -32,13 +32,23 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   if (error != nullptr) *error = e;
   if (!e.ok()) return e.status;
 
-  // validate() has checked every sub-config, so these only fail on a bug; keep the first error.
+  // One source of truth: the camera size and the ground height are set once, here, for every
+  // stage that needs them.
+  TrackerConfig tracker = config.tracker;
+  tracker.image_width = config.camera.width;
+  tracker.image_height = config.camera.height;
+  MapRefinerConfig refiner = config.refiner;
+  refiner.ground_height = config.ground_height;
+  DynamicRegionCleanerConfig cleaner = config.cleaner;
+  cleaner.min_z = config.ground_height + refiner.floor_margin;
+
+  // Stages validate their own configuration; the first refusal is reported.
   Status s = map_.init(config.map);
   if (ok(s)) s = detector_.init(config.detector);
-  if (ok(s)) s = refiner_.init(config.refiner);
-  if (ok(s)) s = tracker_.init(config.tracker);
+  if (ok(s)) s = refiner_.init(refiner);
+  if (ok(s)) s = tracker_.init(tracker);
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
-  if (ok(s)) s = cleaner_.init(config.cleaner);
+  if (ok(s)) s = cleaner_.init(cleaner);
   if (ok(s)) s = markov_.init(config.predictor);
   if (ok(s)) {
     LinearPredictorConfig lc;
@@ -127,9 +137,7 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
 
   // 3. Map refinement against the occupancy map and the clean history.
   const VoxelLookup cleaned{&history_, &CleanHistory::contains_thunk};
-  for (Detection& d : detections_) {
-    if (ok(refiner_.refine(d, map_, cleaned)) && d.refined) ++work.refined;
-  }
+  if (ok(refiner_.refine(map_, cleaned, detections_))) work.refined = refiner_.last_stats().refined;
   lap(Stage::kRefinement);
 
   // 4. Tracking and static/dynamic identification.

@@ -127,6 +127,13 @@ class OccupancyMap {
 
   // Added beyond the shared contract.
   const OccupancyMapConfig& config() const noexcept { return config_; }
+  /// Changes the pixel sampling stride between frames (the pipeline's adaptive budget mode
+  /// coarsens it under load). kInvalidArgument, and no change, outside 1..kMaxImageWidth.
+  [[nodiscard]] Status set_pixel_stride(int stride) noexcept {
+    if (stride < 1 || stride > kMaxImageWidth) return Status::kInvalidArgument;
+    config_.pixel_stride = stride;
+    return Status::kOk;
+  }
   bool initialized() const noexcept { return initialized_; }
   std::size_t blocks_in_use() const noexcept { return blocks_in_use_; }
   std::size_t total_blocks_evicted() const noexcept { return total_blocks_evicted_; }

@@ -37,6 +37,16 @@ struct RunnerCounters {
   std::uint64_t published = 0;      ///< output snapshots published
 };
 
+/// One input slot: a copy of a frame with its image (namespace scope: a nested class with
+/// member initialisers is not default-constructible inside its enclosing class).
+struct RunnerFrameSlot {
+  Stamp stamp = 0;
+  Pose pose{};
+  int width = 0;
+  int height = 0;
+  std::array<std::uint16_t, static_cast<std::size_t>(kMaxImageWidth) * kMaxImageHeight> pixels{};
+};
+
 class Runner {
  public:
   /// The pipeline must be initialised and must outlive the runner; while running, only the
@@ -66,13 +76,7 @@ class Runner {
   RunnerCounters counters() const noexcept;
 
  private:
-  struct FrameSlot {
-    Stamp stamp = 0;
-    Pose pose{};
-    int width = 0;
-    int height = 0;
-    std::array<std::uint16_t, static_cast<std::size_t>(kMaxImageWidth) * kMaxImageHeight> pixels{};
-  };
+  using FrameSlot = RunnerFrameSlot;
 
   static void worker_entry(void* self) noexcept;
   void worker_loop() noexcept;
