@@ -84,6 +84,33 @@ const Scene& scene() {
   return *s;
 }
 
+// Counts the segment queries and the voxel-edge lengths they cover (outside the timed loop).
+struct CountingMap {
+  const OccupancyMap* map;
+  mutable double queries = 0;
+  mutable double voxel_lengths = 0;
+  bool first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                 Eigen::Vector3f* hit) const noexcept {
+    const bool h = map->first_occupied_on_segment(a, b, hit);
+    queries += 1;
+    voxel_lengths += static_cast<double>(((h ? *hit : b) - a).lpNorm<1>() / map->resolution());
+    return h;
+  }
+};
+
+template <class Predictor>
+void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto) {
+  auto p = std::make_unique<Predictor>(proto);
+  CountingMap counting{sc.map.get()};
+  const OccupancyQuery q = OccupancyQuery::of(counting);
+  std::array<PathPrediction, kObstacles> out{};
+  for (std::size_t f = 0; f < kFrames; ++f) {
+    if (!ok(p->predict(sc.frames[f].data(), kObstacles, q, out.data()))) std::abort();
+  }
+  state.counters["queries/frame"] = counting.queries / kFrames;
+  state.counters["voxels/frame"] = counting.voxel_lengths / kFrames;  // ~DDA steps (L1 length)
+}
+
 // Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
@@ -95,6 +122,7 @@ void BM_MarkovPredictor(benchmark::State& state) {
     state.SkipWithError("init failed");
     return;
   }
+  count_work(state, sc, *mp);
   const OccupancyQuery q = OccupancyQuery::of(*sc.map);
   std::array<PathPrediction, kObstacles> out{};
   std::size_t f = 0;
@@ -128,6 +156,7 @@ void BM_LinearPredictor(benchmark::State& state) {
     state.SkipWithError("init failed");
     return;
   }
+  count_work(state, sc, lin);
   const OccupancyQuery q = OccupancyQuery::of(*sc.map);
   std::array<PathPrediction, kObstacles> out{};
   std::size_t f = 0;

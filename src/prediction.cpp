@@ -9,6 +9,9 @@ Status validate(const ClearanceConfig& c) noexcept {
   if (c.max_lines < 1 || c.max_lines > kMaxClearanceLines) return Status::kInvalidArgument;
   if (!std::isfinite(c.line_spacing) || c.line_spacing <= 0.0f) return Status::kInvalidArgument;
   if (c.height_levels < 1 || c.height_levels > kMaxHeightLevels) return Status::kInvalidArgument;
+  if (!std::isfinite(c.chord_tolerance) || c.chord_tolerance < 0.0f) {
+    return Status::kInvalidArgument;
+  }
   if (!std::isfinite(c.ground_clearance) || c.ground_clearance < 0.0f) {
     return Status::kInvalidArgument;
   }
@@ -30,6 +33,25 @@ std::size_t clearance_lines(const ClearanceConfig& c, float radius) noexcept {
   const float cap = static_cast<float>(std::min(c.max_lines, kMaxClearanceLines));
   return static_cast<std::size_t>(std::clamp(gaps + 1.0f, 1.0f, cap));
 }
+
+namespace {
+/// Last sample m > k such that the chord k->m stays within `tolerance` of the path: the sag of
+/// an arc of length L turning by dphi is about L * dphi / 8 (exactly 0 on straight parts).
+std::size_t chord_end(const PathSamples& path, std::size_t k, std::size_t n,
+                      float tolerance) noexcept {
+  std::size_t m = k + 1;
+  const Eigen::Vector2f& t0 = path.tangent[k];
+  while (m + 1 < n) {
+    const Eigen::Vector2f& t1 = path.tangent[m + 1];
+    const float dot = t0.dot(t1);
+    const float cross = std::fabs(t0.x() * t1.y() - t0.y() * t1.x());
+    const float length = path.arc_length[m + 1] - path.arc_length[k];
+    if (dot < 0.9f || length * cross > 8.0f * tolerance) break;  // sin(dphi) ~ dphi up to 25 deg
+    ++m;
+  }
+  return m;
+}
+}  // namespace
 
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance) noexcept {
@@ -57,18 +79,22 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
   const std::size_t n = std::min(path.count, kMaxPathSamples);
   if (n == 0) return result;
   result.free_distance = path.arc_length[n - 1];
-  for (std::size_t k = 0; k + 1 < n; ++k) {
+  std::size_t k = 0;
+  while (k + 1 < n) {
+    const std::size_t m = chord_end(path, k, n, clearance.chord_tolerance);
     const Eigen::Vector2f n0(-path.tangent[k].y(), path.tangent[k].x());
-    const Eigen::Vector2f n1(-path.tangent[k + 1].y(), path.tangent[k + 1].x());
-    float first = 2.0f;  // fraction of this segment at the first hit; > 1 means none
+    const Eigen::Vector2f n1(-path.tangent[m].y(), path.tangent[m].x());
+    float first = 2.0f;  // fraction of this chord at the first hit; > 1 means none
     for (std::size_t h = 0; h < levels; ++h) {
       for (std::size_t j = 0; j < lines; ++j) {
         const Eigen::Vector2f a2 = path.position[k] + offset[j] * n0;
-        const Eigen::Vector2f b2 = path.position[k + 1] + offset[j] * n1;
+        const Eigen::Vector2f b2 = path.position[m] + offset[j] * n1;
         const Eigen::Vector3f a(a2.x(), a2.y(), level[h]);
         const Eigen::Vector3f b(b2.x(), b2.y(), level[h]);
+        // After a hit at fraction `first`, the other lines only need to look before it.
+        const Eigen::Vector3f b_cut = first < 1.0f ? Eigen::Vector3f(a + first * (b - a)) : b;
         Eigen::Vector3f hit;
-        if (!map.segment(a, b, &hit)) continue;
+        if (!map.segment(a, b_cut, &hit)) continue;
         const Eigen::Vector2f ab = b2 - a2;
         const float len2 = ab.squaredNorm();
         float f = 0.0f;
@@ -79,10 +105,10 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
     }
     if (first <= 1.0f) {
       result.free = false;
-      result.free_distance =
-          path.arc_length[k] + first * (path.arc_length[k + 1] - path.arc_length[k]);
+      result.free_distance = path.arc_length[k] + first * (path.arc_length[m] - path.arc_length[k]);
       return result;
     }
+    k = m;
   }
   return result;
 }

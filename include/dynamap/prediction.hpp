@@ -59,12 +59,15 @@ inline constexpr std::size_t kMaxHeightLevels = 4;
 /// polylines parallel to the path, evenly spread over [-radius, +radius] across it, at most
 /// `line_spacing` apart (the centre line alone for radius 0) and at most `max_lines` of them
 /// (wider spacing beyond that), at `height_levels` heights spread over the body above the ground
-/// clearance. Each polyline segment is one exact 3-D DDA query, so nothing is stepped over along
-/// the path; with line_spacing <= the map resolution nothing slips between lines either.
+/// clearance. Consecutive samples are merged into one chord while the chord stays within
+/// `chord_tolerance` of the path (whole straight parts become one chord), and each chord of each
+/// line is one exact 3-D DDA query, so nothing is stepped over along the path; with
+/// line_spacing <= the map resolution nothing slips between lines either.
 struct ClearanceConfig {
   float line_spacing = 0.1f;                   ///< m between swept lines (map resolution)
   std::size_t max_lines = kMaxClearanceLines;  ///< 1..kMaxClearanceLines: caps the work
   std::size_t height_levels = 1;               ///< 1..kMaxHeightLevels
+  float chord_tolerance = 0.02f;  ///< m a merged chord may deviate from the path (0: straight only)
   float ground_clearance = 0.2f;  ///< m above the box bottom that is not checked (floor voxels)
 };
 
@@ -83,9 +86,9 @@ struct PathClearance {
 };
 
 /// Sweeps the obstacle's footprint along `path` (map top view, from PathLibrary::sample) and
-/// returns the arc length travelled before the first occupied voxel. Work: (samples - 1) x lines x
-/// height_levels segment queries (lines = clearance_lines()), stopping at the first segment that
-/// hits.
+/// returns the arc length travelled before the first occupied voxel. Work: at most (samples - 1) x
+/// lines x height_levels segment queries (lines = clearance_lines()), fewer where samples merge
+/// into chords, stopping at the first chord that hits.
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance) noexcept;
 
