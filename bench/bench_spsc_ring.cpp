@@ -7,6 +7,7 @@
 //    producer fills the slot in place and the consumer reads it in place. Boost: the producer
 //    fills a frame and push() copies it in; the consumer reads in place with consume_one().
 // Both sides spin, yielding after kSpinsBeforeYield failed attempts (same policy for both).
+// Two-thread cases pin the producer to CPU 0 and the consumer to CPU 1 when there are 2+ CPUs.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -15,6 +16,7 @@
 #include <benchmark/benchmark.h>
 #include <boost/lockfree/spsc_queue.hpp>
 
+#include "dynamap/platform/thread.hpp"
 #include "dynamap/spsc_ring.hpp"
 
 namespace {
@@ -41,6 +43,11 @@ void spin_until(TryFn&& try_once) {
   }
 }
 
+// Pins the calling thread to `cpu` if the machine has more than one CPU (best effort).
+void pin_to(int cpu) {
+  if (std::thread::hardware_concurrency() > 1) (void)dynamap::platform::set_cpu_affinity(cpu);
+}
+
 void fill_frame(DepthFrame& f, std::uint64_t seq) {
   f.seq = seq;
   f.pixels.fill(static_cast<std::uint16_t>(seq * 7 + 1));
@@ -59,11 +66,13 @@ bool check_frame(const DepthFrame& f, std::uint64_t expected_seq, std::uint64_t*
 // ---- uint64, two threads ----------------------------------------------------------------------
 
 void BM_Ours_U64_TwoThreads(benchmark::State& state) {
+  pin_to(0);
   auto ring = std::make_unique<dynamap::SpscRing<std::uint64_t, kSmallCapacity>>();
   bool ok = true;
   for (auto _ : state) {
     std::uint64_t bad = 0;
     std::thread consumer([&] {
+      pin_to(1);
       for (std::uint64_t i = 0; i < kSmallBatch; ++i) {
         std::uint64_t v = 0;
         spin_until([&] { return ring->try_pop(v) == dynamap::Status::kOk; });
@@ -81,12 +90,14 @@ void BM_Ours_U64_TwoThreads(benchmark::State& state) {
 }
 
 void BM_Boost_U64_TwoThreads(benchmark::State& state) {
+  pin_to(0);
   auto queue = std::make_unique<
       boost::lockfree::spsc_queue<std::uint64_t, boost::lockfree::capacity<kSmallCapacity>>>();
   bool ok = true;
   for (auto _ : state) {
     std::uint64_t bad = 0;
     std::thread consumer([&] {
+      pin_to(1);
       for (std::uint64_t i = 0; i < kSmallBatch; ++i) {
         std::uint64_t v = 0;
         spin_until([&] { return queue->pop(v); });
@@ -133,12 +144,14 @@ void BM_Boost_U64_SameThread(benchmark::State& state) {
 // ---- depth frames, two threads ----------------------------------------------------------------
 
 void BM_Ours_Frame_TwoThreads_SlotApi(benchmark::State& state) {
+  pin_to(0);
   auto ring = std::make_unique<dynamap::SpscRing<DepthFrame, kFrameCapacity>>();
   bool ok = true;
   std::uint64_t checksum = 0;
   for (auto _ : state) {
     std::uint64_t bad = 0;
     std::thread consumer([&] {
+      pin_to(1);
       for (std::uint64_t i = 0; i < kFrameBatch; ++i) {
         const DepthFrame* f = nullptr;
         spin_until([&] { return (f = ring->try_front()) != nullptr; });
@@ -163,6 +176,7 @@ void BM_Ours_Frame_TwoThreads_SlotApi(benchmark::State& state) {
 }
 
 void BM_Boost_Frame_TwoThreads_PushCopy(benchmark::State& state) {
+  pin_to(0);
   auto queue = std::make_unique<
       boost::lockfree::spsc_queue<DepthFrame, boost::lockfree::capacity<kFrameCapacity>>>();
   auto staging = std::make_unique<DepthFrame>();  // the sensor's own buffer
@@ -171,6 +185,7 @@ void BM_Boost_Frame_TwoThreads_PushCopy(benchmark::State& state) {
   for (auto _ : state) {
     std::uint64_t bad = 0;
     std::thread consumer([&] {
+      pin_to(1);
       for (std::uint64_t i = 0; i < kFrameBatch; ++i) {
         spin_until([&] {
           return queue->consume_one(
