@@ -14,7 +14,8 @@ namespace dynamap {
 namespace {
 
 // Items for the two-thread stress tests: >= 1 million natively, a quarter under TSan
-// or when DYNAMAP_STRESS_ITEMS says so (the aarch64 build sets it for qemu).
+// or what DYNAMAP_STRESS_ITEMS says (e.g. on a slow emulator; qemu-aarch64 runs the full count
+// in about a second here, so nothing sets it by default).
 std::uint64_t stress_items(std::uint64_t native) {
   if (const char* env = std::getenv("DYNAMAP_STRESS_ITEMS")) {
     const unsigned long long v = std::strtoull(env, nullptr, 10);
