@@ -52,13 +52,18 @@ Status MapRefiner::refine(const OccupancyMap& map, const VoxelLookup& clean_hist
 
 void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
                             Detection& d) noexcept {
+  const float res = map.resolution();
+  const float half = 0.5f * res;
+  // Voxels that overlap the inflated box, i.e. whose centres lie within half a voxel of it: a
+  // detector box is often thinner than a voxel along the ray (it sees one surface) and would
+  // otherwise miss the very voxels that surface occupies.
   Box3 search = d.raw_box.scaled(config_.inflate);
+  search.min.array() -= half;
+  search.max.array() += half;
   // The floor band is cut from the search box itself, so the voxel budget is not spent on it.
   const float floor_top = config_.ground_height + config_.floor_margin;
   search.min.z() = std::max(search.min.z(), floor_top);
 
-  const float res = map.resolution();
-  const float half = 0.5f * res;
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   Eigen::Vector3f hi = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
   std::size_t support = 0;

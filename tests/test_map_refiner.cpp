@@ -9,6 +9,8 @@
 #include "dynamap/fixed_hash_map.hpp"
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/occupancy_map.hpp"
+#include "dynamap/umap_detector.hpp"
+#include "synthetic_depth.hpp"
 
 namespace dynamap {
 namespace {
@@ -195,6 +197,52 @@ TEST_F(MapRefinerTest, ZeroAllocations) {
   ASSERT_EQ(refiner.refine(*map, lookup, dets), Status::kOk);
   EXPECT_EQ(guard.allocations(), 0u);
   EXPECT_EQ(refiner.last_stats().refined, 5u);
+}
+
+TEST(MapRefinerEndToEnd, DetectorBoxesRefinedAgainstIntegratedMap) {
+  // Camera 1 m above the floor looking along map x; three boxes standing on the floor. The map
+  // integrates a few frames, the detector's front-surface boxes are refined against it.
+  CameraIntrinsics cam;
+  const Pose pose = test::optical_to_map_pose(Eigen::Vector3f(0.f, 0.f, 1.f));
+  test::SyntheticScene scene;
+  auto box = [](float x0, float x1, float y0, float y1, float z0, float z1) {
+    return test::SceneBox{Eigen::Vector3f(x0, y0, z0), Eigen::Vector3f(x1, y1, z1)};
+  };
+  // Camera frame: y down, floor at y = +1; tops at 1.0 / 0.6 / 0.8 m above the floor.
+  scene.boxes = {box(-0.6f, -0.2f, 0.0f, 1.0f, 1.5f, 1.9f), box(0.1f, 0.5f, 0.4f, 1.0f, 2.5f, 2.8f),
+                 box(0.8f, 1.3f, 0.2f, 1.0f, 3.5f, 3.9f)};
+  scene.floor_y = 1.f;
+  scene.wall_z = 6.f;
+  const auto img = test::render_depth(scene, cam);
+  auto map = std::make_unique<OccupancyMap>();
+  ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
+  for (int i = 1; i <= 4; ++i) {
+    ASSERT_EQ(map->integrate(img.view(), cam, pose, static_cast<Stamp>(i) * 33'000'000),
+              Status::kOk);
+  }
+  auto detector = std::make_unique<UMapDetector>();
+  ASSERT_EQ(detector->init(UMapDetectorConfig{}), Status::kOk);
+  DetectionList dets;
+  ASSERT_EQ(detector->detect(img.view(), cam, pose, dets), Status::kOk);
+  ASSERT_EQ(dets.size(), 3u);
+  MapRefiner refiner;
+  ASSERT_EQ(refiner.init(MapRefinerConfig{}), Status::kOk);
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, dets), Status::kOk);
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    const Box3 truth = test::box_to_map(scene.boxes[i].min, scene.boxes[i].max, pose);
+    EXPECT_TRUE(dets[i].refined) << i;
+    // Lateral (map y) and top (map z) to voxel accuracy; bottom is cut at ground + 0.2 m;
+    // along the ray only the seen surface is in the map.
+    EXPECT_NEAR(dets[i].box.min.y(), truth.min.y(), 0.11f) << i;
+    EXPECT_NEAR(dets[i].box.max.y(), truth.max.y(), 0.11f) << i;
+    EXPECT_NEAR(dets[i].box.max.z(), truth.max.z(), 0.11f) << i;
+    EXPECT_GE(dets[i].box.min.z(), 0.2f - 1e-4f) << i;
+    // The nearest box's foot is below the view (visible down to z ~0.35 m at 1.5 m).
+    if (i > 0) {
+      EXPECT_NEAR(dets[i].box.min.z(), 0.2f, 1e-4f) << i;
+    }
+    EXPECT_NEAR(dets[i].box.min.x(), truth.min.x(), 0.11f) << i;
+  }
 }
 
 }  // namespace
