@@ -38,19 +38,24 @@ class BasicCleanHistory {
     now_ = 0;
   }
 
-  /// Records `key` as cleaned at `stamp` (refreshing it if present). When full, the oldest
-  /// entry is evicted first. Stamps should not go backwards (a later one moves `now` forward).
+  /// Records `key` as cleaned at `stamp` (refreshing its stamp if present). When full, the
+  /// least recently refreshed entry is evicted first. Stamps should not go backwards.
   void insert(std::uint64_t key, Stamp stamp) noexcept {
     if (stamp > now_) now_ = stamp;
-    if (count_ == Capacity) pop_oldest();
-    // The ring is ordered by insertion time; a refreshed key leaves a stale ring entry behind,
-    // which is recognised (its sequence number no longer matches) and skipped when popped.
-    const std::uint32_t seq = next_seq_++;
-    ring_[(head_ + count_) % Capacity] = Entry{key, stamp, seq};
-    ++count_;
-    bool inserted = false;
-    std::uint32_t* s = index_.find_or_insert(key, inserted);
-    if (s != nullptr) *s = seq;  // index has room for every ring entry, so this never fails
+    if (const std::uint32_t* seq = index_.find(key)) {
+      Entry& e = ring_[slot_of(*seq)];
+      if (stamp > e.stamp) e.stamp = stamp;  // refreshed in place; requeued lazily
+      return;
+    }
+    if (count_ == Capacity) {
+      // Second chance: refreshed entries at the head move to the back (bounded), then the head
+      // (the oldest) is evicted.
+      for (std::size_t i = 0; i < kMaxRequeuePerInsert && refreshed(ring_[head_]); ++i) {
+        requeue_head();
+      }
+      evict_head();
+    }
+    push_back(Entry{key, stamp, stamp, 0});
   }
 
   /// True when `key` was cleaned within max_age of the latest stamp seen.
@@ -58,19 +63,24 @@ class BasicCleanHistory {
     const std::uint32_t* seq = index_.find(key);
     if (seq == nullptr) return false;
     if (max_age_ == 0) return true;
-    const Entry& e = ring_[slot_of(*seq)];
-    return now_ - e.stamp <= max_age_;
+    return now_ - ring_[slot_of(*seq)].stamp <= max_age_;
   }
 
-  /// Moves `now` to `stamp` and purges expired entries, at most max_purge of them (bounded work).
-  std::size_t expire(Stamp stamp, std::size_t max_purge = Capacity) noexcept {
+  /// Moves `now` to `stamp` and purges expired entries; at most max_work entries are looked at
+  /// (bounded work). Returns the number purged.
+  std::size_t expire(Stamp stamp, std::size_t max_work = Capacity) noexcept {
     if (stamp > now_) now_ = stamp;
     std::size_t purged = 0;
-    while (max_age_ != 0 && count_ > 0 && purged < max_purge) {
+    for (std::size_t work = 0; max_age_ != 0 && count_ > 0 && work < max_work; ++work) {
       const Entry& e = ring_[head_];
-      if (now_ - e.stamp <= max_age_) break;
-      pop_oldest();
-      ++purged;
+      if (now_ - e.stamp > max_age_) {
+        evict_head();
+        ++purged;
+      } else if (refreshed(e)) {
+        requeue_head();
+      } else {
+        break;  // the ring is ordered by queue time: everything behind is younger
+      }
     }
     return purged;
   }
@@ -87,9 +97,13 @@ class BasicCleanHistory {
  private:
   struct Entry {
     std::uint64_t key = 0;
-    Stamp stamp = 0;
+    Stamp stamp = 0;   ///< last time the voxel was cleaned
+    Stamp queued = 0;  ///< stamp when the entry was put at the back of the ring
     std::uint32_t seq = 0;
   };
+  static constexpr std::size_t kMaxRequeuePerInsert = 8;
+
+  static bool refreshed(const Entry& e) noexcept { return e.stamp != e.queued; }
 
   // Ring entries have consecutive sequence numbers, so a seq maps straight to its slot
   // (unsigned wrap-around keeps the difference right after 2^32 inserts).
@@ -99,12 +113,25 @@ class BasicCleanHistory {
            Capacity;
   }
 
-  void pop_oldest() noexcept {
-    const Entry& e = ring_[head_];
-    const std::uint32_t* seq = index_.find(e.key);
-    if (seq != nullptr && *seq == e.seq) index_.erase(e.key);
+  void push_back(Entry e) noexcept {
+    e.seq = next_seq_++;
+    ring_[(head_ + count_) % Capacity] = e;
+    ++count_;
+    bool inserted = false;
+    std::uint32_t* s = index_.find_or_insert(e.key, inserted);
+    if (s != nullptr) *s = e.seq;  // the index has room for every ring entry: never null
+  }
+  Entry pop_head() noexcept {
+    const Entry e = ring_[head_];
     head_ = (head_ + 1) % Capacity;
     --count_;
+    return e;
+  }
+  void evict_head() noexcept { index_.erase(pop_head().key); }
+  void requeue_head() noexcept {
+    Entry e = pop_head();
+    e.queued = e.stamp;
+    push_back(e);
   }
 
   std::array<Entry, Capacity> ring_{};
