@@ -85,6 +85,17 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   q_max_ = quantize(logit(c.prob_max));
   q_occupied_ = quantize(logit(c.prob_occupied));
 
+  // Dense per-frame block cache over the local region (+1 block margin each side); disabled
+  // (hash lookups only) when the region is too large for kLocalGridCells.
+  std::size_t cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    const float blocks = c.local_half_extent[a] / (static_cast<float>(kBlockEdge) * c.resolution);
+    grid_dim_[static_cast<std::size_t>(a)] = 2 * static_cast<std::int32_t>(std::ceil(blocks)) + 3;
+    cells *= static_cast<std::size_t>(grid_dim_[static_cast<std::size_t>(a)]);
+  }
+  grid_enabled_ = cells <= kLocalGridCells;
+  grid_cells_ = grid_enabled_ ? cells : 0;
+
   table_.clear();
   for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
     free_slots_[s] = static_cast<std::uint32_t>(kMaxMapBlocks - 1 - s);  // pop yields 0, 1, ...
@@ -334,6 +345,25 @@ OccupancyMap::Block* OccupancyMap::acquire_block(std::int32_t bi, std::int32_t b
   return b;
 }
 
+inline OccupancyMap::Block* OccupancyMap::local_block(std::int32_t bi, std::int32_t bj,
+                                                      std::int32_t bk) noexcept {
+  const std::int32_t gi = bi - grid_origin_[0], gj = bj - grid_origin_[1],
+                     gk = bk - grid_origin_[2];
+  if (!grid_enabled_ ||
+      static_cast<std::uint32_t>(gi) >= static_cast<std::uint32_t>(grid_dim_[0]) ||
+      static_cast<std::uint32_t>(gj) >= static_cast<std::uint32_t>(grid_dim_[1]) ||
+      static_cast<std::uint32_t>(gk) >= static_cast<std::uint32_t>(grid_dim_[2])) {
+    return acquire_block(bi, bj, bk);
+  }
+  std::uint16_t& cell =
+      local_grid_[static_cast<std::size_t>(gi + grid_dim_[0] * (gj + grid_dim_[1] * gk))];
+  if (cell != 0) return &pool_[cell - 1u];
+  Block* b = acquire_block(bi, bj, bk);
+  // Blocks touched this frame are never evicted this frame, so the cached slot stays valid.
+  if (b != nullptr) cell = static_cast<std::uint16_t>(b - pool_.data() + 1);
+  return b;
+}
+
 void OccupancyMap::advance_frame_stamp() noexcept {
   if (frame_tag_ >= kMaxFrameTag) {
     // Rare wrap (every ~9 min at 30 Hz): old stamps could alias new ones, so clear them all.
@@ -349,10 +379,9 @@ void OccupancyMap::advance_frame_stamp() noexcept {
 // ---------------------------------------------------------------------------------------------
 // Integration.
 
-bool OccupancyMap::ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f& end,
-                           bool& is_hit) const noexcept {
-  const std::uint16_t raw = depth.at(u, v);
-  float z = static_cast<float>(raw) * cam_->depth_scale;
+inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Vector3f& dir,
+                                    Eigen::Vector3f& end, bool& is_hit) const noexcept {
+  float z = static_cast<float>(raw) * depth_scale_;
   is_hit = true;
   if (raw == 0 || z > config_.max_depth) {
     z = config_.max_depth;
@@ -360,9 +389,7 @@ bool OccupancyMap::ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f
   } else if (z < config_.min_depth) {
     return false;
   }
-  const float ry = (static_cast<float>(v) - cam_->cy) / cam_->fy;
-  Eigen::Vector3f offset =
-      (column_dir_[static_cast<std::size_t>(u)] + ry * down_dir_ + forward_dir_) * z;
+  Eigen::Vector3f offset = dir * z;
   // Clip to the local region (the camera is at its centre).
   float scale = 1.f;
   for (int a = 0; a < 3; ++a) {
@@ -378,71 +405,186 @@ bool OccupancyMap::ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f
   return true;
 }
 
-void OccupancyMap::traverse_free(const Eigen::Vector3f& end, bool end_is_hit) noexcept {
-  IndexVec idx{}, last{};
-  if (!index_of(origin_, idx) || !index_of(end, last)) return;
-  const Eigen::Vector3f d = end - origin_;
-  std::int32_t step[3];
-  std::int32_t remaining[3];
-  float t_max[3];
-  float t_delta[3];
-  constexpr float kInf = std::numeric_limits<float>::infinity();
-  for (std::size_t ax = 0; ax < 3; ++ax) {
-    const int e = static_cast<int>(ax);
-    remaining[ax] = std::abs(last[ax] - idx[ax]);
-    step[ax] = last[ax] > idx[ax] ? 1 : -1;
-    if (remaining[ax] == 0 || d[e] == 0.f) {
-      remaining[ax] = 0;
-      t_max[ax] = kInf;
-      t_delta[ax] = kInf;
-      continue;
+inline bool OccupancyMap::ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f& end,
+                                  bool& is_hit) const noexcept {
+  // Same expressions as mark_end_points(), so both passes compute the same end point.
+  const Eigen::Vector3f row_dir = row_direction(v);
+  return end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_dir, end, is_hit);
+}
+
+void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
+  std::size_t pixels = 0, merged = 0, dropped = 0, dropped_updates = 0, updates = 0, hits = 0;
+  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
+  const std::uint16_t queued_stamp = static_cast<std::uint16_t>(base + kQueued);
+  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
+  const bool merge = config_.merge_rays_per_voxel;
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  const int width = cam_->width, height = cam_->height;
+  const std::size_t max_rays = config_.max_rays_per_frame;
+  const std::int32_t q_hit = q_hit_, q_max = q_max_;
+  Block* block = nullptr;
+  std::int32_t bx = 0, by = 0, bz = 0;
+  bool have_block = false;
+  for (int v = margin; v < height - margin; v += stride) {
+    const std::uint16_t* row = depth.row(v);
+    const Eigen::Vector3f row_dir = row_direction(v);
+    for (int u = margin; u < width - margin; u += stride) {
+      Eigen::Vector3f end;
+      bool is_hit = false;
+      if (!end_point(row[u], column_dir_[static_cast<std::size_t>(u)] + row_dir, end, is_hit)) {
+        continue;
+      }
+      ++pixels;
+      IndexVec idx{};
+      if (!index_of(end, idx)) continue;  // cannot happen: the region is inside the key range
+      const std::int32_t nbx = idx[0] >> kBlockBits, nby = idx[1] >> kBlockBits,
+                         nbz = idx[2] >> kBlockBits;
+      if (!have_block || block == nullptr || ((nbx != bx) | (nby != by) | (nbz != bz))) {
+        bx = nbx;
+        by = nby;
+        bz = nbz;
+        have_block = true;
+        block = local_block(bx, by, bz);
+        if (block == nullptr) {
+          ++dropped;
+          ++dropped_updates;
+          continue;
+        }
+      }
+      Voxel& vx = block->voxels[local_index(idx[0], idx[1], idx[2])];
+      const std::uint16_t stamp = vx.stamp;
+      if (merge && (stamp == hit_stamp || (!is_hit && stamp == queued_stamp))) {
+        ++merged;
+        continue;
+      }
+      if (ray_count_ >= max_rays) {
+        ++dropped;
+        continue;
+      }
+      if (is_hit) {
+        if (stamp != hit_stamp) {
+          const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
+          vx.log_odds = static_cast<std::int16_t>(std::min(current + q_hit, q_max));
+          vx.stamp = hit_stamp;
+          ++updates;
+          ++hits;
+        }
+      } else if (stamp != hit_stamp) {
+        vx.stamp = queued_stamp;
+      }
+      rays_[ray_count_++] = static_cast<std::uint32_t>(v * width + u);
     }
-    const float boundary = static_cast<float>(idx[ax] + (step[ax] > 0 ? 1 : 0)) * resolution_;
-    t_max[ax] = (boundary - origin_[e]) / d[e];
-    t_delta[ax] = resolution_ / std::fabs(d[e]);
   }
-  // A hit ray carves up to (not including) its end voxel; the end voxel was already hit.
-  std::int32_t steps = remaining[0] + remaining[1] + remaining[2] + (end_is_hit ? 0 : 1);
+  stats_.pixels_sampled += pixels;
+  stats_.rays_merged += merged;
+  stats_.rays_dropped += dropped;
+  stats_.updates_dropped += dropped_updates;
+  stats_.voxel_updates += updates;
+  stats_.hits += hits;
+}
+
+void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
+  // Counters live in locals (registers) for the hot loop and are stored once at the end.
+  std::size_t visits_left = config_.max_voxel_visits_per_frame;
+  std::size_t visits = 0, updates = 0, dropped_updates = 0, rays = 0, rays_dropped = 0;
   const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
   const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
   const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
-  Block* block = nullptr;
-  IndexVec block_idx{idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits};
-  block = acquire_block(block_idx[0], block_idx[1], block_idx[2]);
-  while (steps-- > 0) {
-    if (visits_left_ == 0) {
-      ++stats_.rays_dropped;
-      return;
+  const std::int32_t q_miss = q_miss_, q_min = q_min_;
+  const float res = resolution_;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  IndexVec start{};
+  if (!index_of(origin_, start)) return;  // cannot happen: integrate() checked the pose
+  const std::int32_t width = cam_->width;
+
+  for (std::size_t r = 0; r < ray_count_; ++r) {
+    if (visits_left == 0) {
+      rays_dropped += ray_count_ - r;
+      break;
     }
-    --visits_left_;
-    ++stats_.voxel_visits;
-    if (block == nullptr) {
-      ++stats_.updates_dropped;
-    } else {
-      Voxel& vx = block->voxels[local_index(idx[0], idx[1], idx[2])];
-      if (vx.stamp != hit_stamp && vx.stamp != miss_stamp) {
-        const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
-        vx.log_odds = static_cast<std::int16_t>(std::max<std::int32_t>(current + q_miss_, q_min_));
-        vx.stamp = miss_stamp;
-        ++stats_.voxel_updates;
+    const int u = static_cast<int>(rays_[r] % static_cast<std::uint32_t>(width));
+    const int v = static_cast<int>(rays_[r] / static_cast<std::uint32_t>(width));
+    Eigen::Vector3f end;
+    bool end_is_hit = false;
+    IndexVec last{};
+    if (!ray_end(depth, u, v, end, end_is_hit) || !index_of(end, last)) continue;
+    ++rays;
+
+    // Amanatides-Woo set-up, parameter t in [0, 1] along origin -> end.
+    const Eigen::Vector3f d = end - origin_;
+    std::int32_t ix = start[0], iy = start[1], iz = start[2];
+    const std::int32_t ex = last[0], ey = last[1], ez = last[2];
+    const std::int32_t sx = ex >= ix ? 1 : -1, sy = ey >= iy ? 1 : -1, sz = ez >= iz ? 1 : -1;
+    const auto axis_setup = [&](std::int32_t i, std::int32_t e, std::int32_t s, float o, float di,
+                                float& t_max, float& t_delta) {
+      if (i == e || di == 0.f) {
+        t_max = kInf;
+        t_delta = kInf;
+        return;
+      }
+      const float boundary = static_cast<float>(i + (s > 0 ? 1 : 0)) * res;
+      t_max = (boundary - o) / di;
+      t_delta = res / std::fabs(di);
+    };
+    float tx, ty, tz, dx, dy, dz;
+    axis_setup(ix, ex, sx, origin_.x(), d.x(), tx, dx);
+    axis_setup(iy, ey, sy, origin_.y(), d.y(), ty, dy);
+    axis_setup(iz, ez, sz, origin_.z(), d.z(), tz, dz);
+    // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in the end voxel whatever the
+    // rounding; an axis that reached its end index gets t = inf. A hit ray stops before its end
+    // voxel, which already holds this frame's hit.
+    std::size_t steps =
+        static_cast<std::size_t>(std::abs(ex - ix) + std::abs(ey - iy) + std::abs(ez - iz)) +
+        (end_is_hit ? 0u : 1u);
+    if (steps > visits_left) {
+      steps = visits_left;
+      ++rays_dropped;
+    }
+    visits_left -= steps;
+    visits += steps;
+
+    std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
+    Block* block = local_block(bx, by, bz);
+    for (std::size_t n = 0; n < steps; ++n) {
+      if (block == nullptr) {
+        ++dropped_updates;
+      } else {
+        // Branch-free update: whether this voxel was already updated this frame is mixed along
+        // a ray (near the camera mostly yes, far mostly no), so a branch mispredicts often.
+        Voxel& vx = block->voxels[local_index(ix, iy, iz)];
+        const Voxel old = vx;
+        const bool fresh = (old.stamp != hit_stamp) & (old.stamp != miss_stamp);
+        const std::int32_t current = old.log_odds == kUnknown ? 0 : old.log_odds;
+        const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+        vx.log_odds = fresh ? updated : old.log_odds;
+        vx.stamp = fresh ? miss_stamp : old.stamp;
+        updates += fresh ? 1u : 0u;
+      }
+      // Branch-free choice of the axis with the nearest boundary (the branchy version
+      // mispredicts on most steps).
+      const bool step_x = (tx <= ty) & (tx <= tz);
+      const bool step_y = !step_x & (ty <= tz);
+      const bool step_z = !step_x & !step_y;
+      ix += step_x ? sx : 0;
+      iy += step_y ? sy : 0;
+      iz += step_z ? sz : 0;
+      tx = step_x ? (ix == ex ? kInf : tx + dx) : tx;
+      ty = step_y ? (iy == ey ? kInf : ty + dy) : ty;
+      tz = step_z ? (iz == ez ? kInf : tz + dz) : tz;
+      const std::int32_t nbx = ix >> kBlockBits, nby = iy >> kBlockBits, nbz = iz >> kBlockBits;
+      if ((nbx != bx) | (nby != by) | (nbz != bz)) {  // next block: one table lookup
+        bx = nbx;
+        by = nby;
+        bz = nbz;
+        if (n + 1 < steps) block = local_block(bx, by, bz);
       }
     }
-    if (steps == 0) break;
-    std::size_t ax = 0;
-    if (t_max[1] < t_max[ax]) ax = 1;
-    if (t_max[2] < t_max[ax]) ax = 2;
-    idx[ax] += step[ax];
-    if (--remaining[ax] == 0) {
-      t_max[ax] = kInf;
-    } else {
-      t_max[ax] += t_delta[ax];
-    }
-    const std::int32_t nb = idx[ax] >> kBlockBits;
-    if (nb != block_idx[ax]) {  // crossed into the next block: one table lookup
-      block_idx[ax] = nb;
-      block = acquire_block(block_idx[0], block_idx[1], block_idx[2]);
-    }
   }
+  stats_.rays += rays;
+  stats_.rays_dropped += rays_dropped;
+  stats_.voxel_visits += visits;
+  stats_.voxel_updates += updates;
+  stats_.updates_dropped += dropped_updates;
 }
 
 Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& cam,
@@ -466,9 +608,11 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   last_stamp_ = stamp;
   advance_frame_stamp();
   evictions_this_frame_ = 0;
-  visits_left_ = config_.max_voxel_visits_per_frame;
   ray_count_ = 0;
   cam_ = &cam;
+  depth_scale_ = cam.depth_scale;
+  cy_ = cam.cy;
+  inv_fy_ = 1.f / cam.fy;
   origin_ = T_map_camera.translation;
   const Eigen::Matrix3f R = T_map_camera.rotation.normalized().toRotationMatrix();
   for (int u = 0; u < cam.width; ++u) {
@@ -477,74 +621,21 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   }
   down_dir_ = R.col(1);
   forward_dir_ = R.col(2);
-
-  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
-  const std::uint16_t queued_stamp = static_cast<std::uint16_t>(base + kQueued);
-  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
-  const bool merge = config_.merge_rays_per_voxel;
-  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  if (grid_enabled_) {
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t i = static_cast<std::size_t>(a);
+      grid_origin_[i] = (fast_floor(origin_[a] * inv_resolution_) >> kBlockBits) - grid_dim_[i] / 2;
+    }
+    std::fill(local_grid_.begin(), local_grid_.begin() + static_cast<std::ptrdiff_t>(grid_cells_),
+              std::uint16_t{0});
+  }
 
   // Pass 1: end points. Hits are applied here (once per voxel), so pass 2's misses skip them:
   // hit wins over miss. Rays ending in an already-seen voxel are merged (when enabled).
-  Block* block = nullptr;
-  IndexVec block_idx{};
-  for (int v = margin; v < cam.height - margin; v += stride) {
-    for (int u = margin; u < cam.width - margin; u += stride) {
-      Eigen::Vector3f end;
-      bool is_hit = false;
-      if (!ray_end(depth, u, v, end, is_hit)) continue;
-      ++stats_.pixels_sampled;
-      IndexVec idx{};
-      if (!index_of(end, idx)) continue;  // cannot happen: the region is inside the key range
-      const IndexVec bidx{idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits};
-      if (block == nullptr || bidx != block_idx) {
-        block = acquire_block(bidx[0], bidx[1], bidx[2]);
-        block_idx = bidx;
-        if (block == nullptr) {
-          ++stats_.rays_dropped;
-          ++stats_.updates_dropped;
-          continue;
-        }
-      }
-      Voxel& vx = block->voxels[local_index(idx[0], idx[1], idx[2])];
-      const bool seen = vx.stamp == hit_stamp || vx.stamp == queued_stamp;
-      if (merge && (vx.stamp == hit_stamp || (!is_hit && seen))) {
-        ++stats_.rays_merged;
-        continue;
-      }
-      if (ray_count_ >= config_.max_rays_per_frame) {
-        ++stats_.rays_dropped;
-        continue;
-      }
-      if (is_hit) {
-        if (vx.stamp != hit_stamp) {
-          const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
-          vx.log_odds = static_cast<std::int16_t>(std::min<std::int32_t>(current + q_hit_, q_max_));
-          vx.stamp = hit_stamp;
-          ++stats_.voxel_updates;
-          ++stats_.hits;
-        }
-      } else if (vx.stamp != hit_stamp) {
-        vx.stamp = queued_stamp;
-      }
-      rays_[ray_count_++] = static_cast<std::uint32_t>(v * cam.width + u);
-    }
-  }
+  mark_end_points(depth);
 
   // Pass 2: free space along each ray with a 3-D DDA, within the visit budget.
-  for (std::size_t r = 0; r < ray_count_; ++r) {
-    if (visits_left_ == 0) {
-      stats_.rays_dropped += ray_count_ - r;
-      break;
-    }
-    const int u = static_cast<int>(rays_[r] % static_cast<std::uint32_t>(cam.width));
-    const int v = static_cast<int>(rays_[r] / static_cast<std::uint32_t>(cam.width));
-    Eigen::Vector3f end;
-    bool is_hit = false;
-    if (!ray_end(depth, u, v, end, is_hit)) continue;
-    ++stats_.rays;
-    traverse_free(end, is_hit);
-  }
+  carve_free_space(depth);
   cam_ = nullptr;
   return Status::kOk;
 }

@@ -78,6 +78,8 @@ class OccupancyMap {
   static constexpr std::int32_t kKeyHalfRange = 1 << 20;
   /// Upper bound on DDA steps of one segment query (longer segments are cut there).
   static constexpr std::size_t kMaxSegmentVisits = 1 << 16;
+  /// Cells of the per-frame dense block cache over the local region (default region: 3179).
+  static constexpr std::size_t kLocalGridCells = 32768;
   /// Log-odds are stored as int16 in units of 1/kLogOddsScale.
   static constexpr float kLogOddsScale = 1000.f;
 
@@ -160,6 +162,7 @@ class OccupancyMap {
   };
 
   using IndexVec = std::array<std::int32_t, 3>;
+  static_assert(kMaxMapBlocks < 65535, "local_grid_ stores slot + 1 as uint16");
 
   static float dequantize(std::int32_t q) noexcept { return static_cast<float>(q) / kLogOddsScale; }
   static std::uint64_t pack(std::int32_t i, std::int32_t j, std::int32_t k) noexcept {
@@ -205,13 +208,20 @@ class OccupancyMap {
 
   // Integration internals (src/occupancy_map.cpp).
   Block* acquire_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
+  Block* local_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
   Block* allocate_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
   std::size_t evict_far_blocks() noexcept;
   void release_block(std::uint32_t slot) noexcept;
   void advance_frame_stamp() noexcept;
   bool ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f& end,
                bool& is_hit) const noexcept;
-  void traverse_free(const Eigen::Vector3f& end, bool end_is_hit) noexcept;
+  bool end_point(std::uint16_t raw, const Eigen::Vector3f& dir, Eigen::Vector3f& end,
+                 bool& is_hit) const noexcept;
+  Eigen::Vector3f row_direction(int v) const noexcept {
+    return ((static_cast<float>(v) - cy_) * inv_fy_) * down_dir_ + forward_dir_;
+  }
+  void mark_end_points(const DepthView& depth) noexcept;
+  void carve_free_space(const DepthView& depth) noexcept;
 
   // --- configuration (derived at init) ---
   OccupancyMapConfig config_{};
@@ -238,12 +248,17 @@ class OccupancyMap {
   std::size_t ray_count_ = 0;
   std::array<Eigen::Vector3f, kMaxImageWidth> column_dir_{};  ///< R * ((u-cx)/fx, 0, 0)
   std::array<EvictionCandidate, kMaxMapBlocks> eviction_{};
+  /// Pool slot + 1 of each block of the local region resolved this frame (0: not yet).
+  std::array<std::uint16_t, kLocalGridCells> local_grid_{};
+  std::array<std::int32_t, 3> grid_origin_{}, grid_dim_{};
+  std::size_t grid_cells_ = 0;
+  bool grid_enabled_ = false;
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
   Eigen::Vector3f down_dir_ = Eigen::Vector3f::Zero();     ///< R.col(1)
   Eigen::Vector3f forward_dir_ = Eigen::Vector3f::Zero();  ///< R.col(2)
   Eigen::Vector3f box_min_ = Eigen::Vector3f::Zero(), box_max_ = Eigen::Vector3f::Zero();
   const CameraIntrinsics* cam_ = nullptr;
-  std::size_t visits_left_ = 0;
+  float depth_scale_ = 0.f, cy_ = 0.f, inv_fy_ = 0.f;
   std::size_t evictions_this_frame_ = 0;
   IntegrationStats stats_{};
 };
