@@ -52,7 +52,8 @@ struct IntegrationStats {
   std::size_t rays = 0;           ///< rays traversed (after merging)
   std::size_t rays_dropped = 0;   ///< rays not (fully) traversed: ray/visit cap or pool full
   std::size_t voxel_visits = 0;   ///< DDA steps
-  std::size_t voxel_updates = 0;  ///< voxels whose log-odds changed (hits + misses)
+  std::size_t voxel_updates = 0;  ///< updates applied (hits + misses, <= 1 per voxel; a
+                                  ///< clamped voxel counts even if its value stays)
   std::size_t blocks_allocated = 0;
   std::size_t blocks_evicted = 0;
   // Added beyond the shared contract:
