@@ -1,0 +1,137 @@
+// Pipeline timing, laid out like the paper's Table II: per-stage and total time per frame
+// (median and p99 over a synthetic 640x480 sequence with walkers), plus deliberately worst-case
+// frames. Prints a table; timing goals are judged from it, never in unit tests.
+//
+//   ./build/release/bench/bench_pipeline [frames=300] [passes=3]
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <vector>
+
+#include "dynamap/pipeline.hpp"
+#include "dynamap/worst_case.hpp"
+#include "world_scene.hpp"
+
+namespace {
+
+using namespace dynamap;
+
+struct Sequence {
+  std::vector<std::vector<std::uint16_t>> images;
+  std::vector<Pose> poses;
+};
+
+// An office-like room: walls, a few boxes and pillars, four people walking and one standing;
+// the camera drifts slowly forward and yaws, as on a hovering drone.
+Sequence make_sequence(const CameraIntrinsics& cam, int frames) {
+  Sequence s;
+  const std::vector<Box3> statics = {
+      Box3::from_center_size({6.f, 0.f, 1.5f}, {0.2f, 12.f, 3.f}),    // far wall
+      Box3::from_center_size({2.f, 4.f, 1.5f}, {10.f, 0.2f, 3.f}),    // left wall
+      Box3::from_center_size({2.f, -4.f, 1.5f}, {10.f, 0.2f, 3.f}),   // right wall
+      Box3::from_center_size({3.5f, 2.2f, 0.4f}, {0.8f, 0.8f, 0.8f}),  // boxes
+      Box3::from_center_size({4.5f, -2.5f, 0.5f}, {1.0f, 0.6f, 1.0f}),
+      Box3::from_center_size({2.8f, -1.0f, 1.5f}, {0.3f, 0.3f, 3.0f}),  // pillar
+      test::person_at(5.0f, 1.0f),                                       // standing person
+  };
+  test::WorldScene scene;
+  s.images.resize(static_cast<std::size_t>(frames));
+  for (int i = 0; i < frames; ++i) {
+    const float t = static_cast<float>(i) / 30.f;
+    scene.boxes = statics;
+    scene.boxes.push_back(test::person_at(3.0f, -2.5f + std::fmod(1.0f * t, 5.f)));
+    scene.boxes.push_back(test::person_at(4.0f + 0.8f * std::sin(0.5f * t), 2.5f - std::fmod(0.8f * t, 5.f)));
+    scene.boxes.push_back(test::person_at(2.2f + std::fmod(0.6f * t, 3.f), 1.2f));
+    scene.boxes.push_back(test::person_at(5.2f - std::fmod(0.7f * t, 3.f), -0.5f));
+    const Pose pose = test::level_camera(Eigen::Vector3f(0.3f * std::sin(0.2f * t), 0.f, 1.3f),
+                                         0.25f * std::sin(0.3f * t));
+    s.poses.push_back(pose);
+    (void)test::render(scene, cam, pose, s.images[static_cast<std::size_t>(i)]);
+  }
+  return s;
+}
+
+double ms(std::uint64_t ns) { return static_cast<double>(ns) * 1e-6; }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int frames = argc > 1 ? std::atoi(argv[1]) : 300;
+  const int passes = argc > 2 ? std::atoi(argv[2]) : 3;
+  PipelineConfig config;
+  std::printf("rendering %d frames of 640x480 ...\n", frames);
+  const Sequence seq = make_sequence(config.camera, frames);
+
+  auto pipeline = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  // Each pass re-initialises (a fresh map), timing every frame; statistics accumulate over passes
+  // except the first frame of each pass (cold caches, empty map).
+  std::array<std::vector<std::uint64_t>, kStageCount> stage;
+  std::vector<std::uint64_t> total;
+  std::size_t dynamic_tracks = 0, predictions = 0;
+  for (int pass = 0; pass < passes; ++pass) {
+    if (!ok(pipeline->init(config))) return 1;
+    for (int i = 0; i < frames; ++i) {
+      Frame f;
+      f.stamp = static_cast<Stamp>(i + 1) * 33'333'333ULL;
+      f.T_map_camera = seq.poses[static_cast<std::size_t>(i)];
+      f.depth = DepthView{seq.images[static_cast<std::size_t>(i)].data(), config.camera.width,
+                          config.camera.height, config.camera.width * 2};
+      if (!ok(pipeline->process(f, *out))) return 1;
+      if (i == 0) continue;
+      for (std::size_t k = 0; k < kStageCount; ++k) stage[k].push_back(out->stage_ns[k]);
+      total.push_back(out->total_ns);
+      dynamic_tracks += out->work.dynamic_tracks;
+      predictions += out->num_predictions;
+    }
+  }
+  auto pct = [](std::vector<std::uint64_t> v, double p) {
+    std::sort(v.begin(), v.end());
+    const std::size_t r = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+    return v[std::min(v.size() - 1, r == 0 ? 0 : r - 1)];
+  };
+  const double total_med = ms(pct(total, 0.5));
+  double sum_medians = 0;
+  for (std::size_t k = 0; k < kStageCount; ++k) sum_medians += ms(pct(stage[k], 0.5));
+
+  std::printf("\nTable II (this machine, one core, %zu frames): time per frame\n", total.size());
+  std::printf("| module | median (ms) | p99 (ms) | share of median |\n|---|---|---|---|\n");
+  for (std::size_t k = 0; k < kStageCount; ++k) {
+    const double m = ms(pct(stage[k], 0.5));
+    std::printf("| %s | %.3f | %.3f | %.0f %% |\n", to_string(static_cast<Stage>(k)), m,
+                ms(pct(stage[k], 0.99)), 100.0 * m / sum_medians);
+  }
+  std::printf("| **total** | **%.3f** | **%.3f** | |\n", total_med, ms(pct(total, 0.99)));
+  std::printf("(mean %.1f dynamic tracks and %.1f predictions per frame)\n",
+              static_cast<double>(dynamic_tracks) / static_cast<double>(total.size()),
+              static_cast<double>(predictions) / static_cast<double>(total.size()));
+
+  // Worst-case frames: every pixel at max range (rays), and clutter (detections, a full
+  // tracker). Each is timed 30 times on a warm pipeline; the median is reported.
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(config.camera.width * config.camera.height));
+  std::printf("\nWorst-case frames (median of 30, ms): \n");
+  for (WorstCase kind : {WorstCase::kMaxRange, WorstCase::kClutter}) {
+    if (!ok(pipeline->init(config))) return 1;
+    Frame f;
+    f.T_map_camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.3f));
+    f.depth = make_worst_case_depth(kind, config.camera, config.map.max_depth, kMaxDetections, px.data());
+    std::vector<std::uint64_t> t;
+    std::size_t max_tracks = 0;
+    for (int i = 0; i < 30; ++i) {
+      f.stamp = static_cast<Stamp>(i + 1) * 33'333'333ULL;
+      if (!ok(pipeline->process(f, *out))) return 1;
+      t.push_back(out->total_ns);
+      max_tracks = std::max(max_tracks, out->num_obstacles);
+    }
+    const double w = ms(pct(t, 0.5));
+    std::printf("  %-9s total %.3f ms = %.2fx the sequence median (rays %zu, detections %zu, "
+                "tracks %zu)\n",
+                kind == WorstCase::kMaxRange ? "max-range" : "clutter", w, w / total_med,
+                out->work.rays, out->work.detections, max_tracks);
+  }
+  std::printf("\nfootprint: %.1f MiB (Pipeline::memory_bytes)\n",
+              static_cast<double>(Pipeline::memory_bytes()) / (1024.0 * 1024.0));
+  return 0;
+}

@@ -1,0 +1,410 @@
+// dynamap-replay: runs the pipeline over a sequence in the TUM RGB-D layout (DATA_FORMAT.md) and
+// writes tracks.csv, predictions.csv (+ predictions_linear.csv), timing.csv and top-view
+// pictures, printing progress and a summary.
+//
+//   dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N] [--picture-every N] [--quiet]
+//   dynamap-replay --help-params
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <sys/stat.h>
+
+#include "common/obstacles.hpp"
+#include "common/png_io.hpp"
+#include "common/sequence.hpp"
+#include "common/static_world.hpp"
+#include "common/text_io.hpp"
+#include "common/topview.hpp"
+#include "dynamap/pipeline.hpp"
+#include "params.hpp"
+#include "platform_clock_tools.hpp"
+
+namespace {
+
+using namespace dynamap;
+using namespace dynamap::tools;
+
+struct Options {
+  std::string seq;
+  std::string out;
+  std::string params;
+  long max_frames = -1;
+  long picture_every = 0;
+  bool quiet = false;
+};
+
+void usage(std::ostream& os) {
+  os << "usage: dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N]\n"
+        "                      [--picture-every N] [--quiet]\n"
+        "       dynamap-replay --help-params\n"
+        "Runs the dynamap pipeline over SEQ (TUM RGB-D layout, see DATA_FORMAT.md) and writes\n"
+        "DIR/tracks.csv, DIR/predictions.csv, DIR/predictions_linear.csv, DIR/timing.csv,\n"
+        "DIR/topview.png (final state) and, with --picture-every N, DIR/frames/frame_NNNNN.png.\n"
+        "--params FILE: YAML with PipelineConfig keys (e.g. 'map: {resolution: 0.1}').\n";
+}
+
+bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](const char* name) -> const char* {
+      if (i + 1 >= argc) {
+        std::cerr << "dynamap-replay: " << name << " needs a value\n";
+        return nullptr;
+      }
+      return argv[++i];
+    };
+    auto number = [&](const char* name, long& target) {
+      const char* v = value(name);
+      if (v == nullptr) return false;
+      char* end = nullptr;
+      target = std::strtol(v, &end, 10);
+      if (*end != '\0' || target < 0) {
+        std::cerr << "dynamap-replay: " << name << " takes a non-negative integer, not '" << v
+                  << "'\n";
+        return false;
+      }
+      return true;
+    };
+    if (a == "--help" || a == "-h") {
+      usage(std::cout);
+      exit_code = 0;
+      return false;
+    } else if (a == "--help-params") {
+      for (const std::string& line : describe_params(PipelineConfig{})) std::cout << line << "\n";
+      exit_code = 0;
+      return false;
+    } else if (a == "--out") {
+      const char* v = value("--out");
+      if (v == nullptr) return false;
+      o.out = v;
+    } else if (a == "--params") {
+      const char* v = value("--params");
+      if (v == nullptr) return false;
+      o.params = v;
+    } else if (a == "--max-frames") {
+      if (!number("--max-frames", o.max_frames)) return false;
+    } else if (a == "--picture-every") {
+      if (!number("--picture-every", o.picture_every)) return false;
+    } else if (a == "--quiet") {
+      o.quiet = true;
+    } else if (!a.empty() && a[0] == '-') {
+      std::cerr << "dynamap-replay: unknown option '" << a << "'\n";
+      usage(std::cerr);
+      return false;
+    } else if (o.seq.empty()) {
+      o.seq = a;
+    } else {
+      std::cerr << "dynamap-replay: unexpected argument '" << a << "'\n";
+      return false;
+    }
+  }
+  if (o.seq.empty() || o.out.empty()) {
+    usage(std::cerr);
+    return false;
+  }
+  return true;
+}
+
+void make_dir(const std::string& path) {
+  if (mkdir(path.c_str(), 0755) != 0 && errno != EEXIST) {
+    throw ToolError(path + ": cannot create the output directory");
+  }
+}
+
+std::ofstream open_out(const std::string& path) {
+  std::ofstream f(path);
+  if (!f) throw ToolError(path + ": cannot open for writing");
+  f << std::setprecision(6) << std::fixed;
+  return f;
+}
+
+Pose to_pose(const PoseD& p) {
+  Pose r;
+  r.translation = p.translation.cast<float>();
+  r.rotation = p.rotation.cast<float>().normalized();
+  return r;
+}
+
+// Everything the pictures need, accumulated while replaying.
+struct PictureState {
+  std::map<std::uint32_t, std::vector<Eigen::Vector2d>> dynamic_paths;  // by track id
+  std::vector<Eigen::Vector2d> camera;
+};
+
+TopViewScene build_scene(const Pipeline& pipeline, const FrameOutput& out, const PictureState& ps,
+                         const StaticWorld* world, const std::vector<ObstacleRecord>& truth,
+                         double until_stamp, const Pose& camera_pose, const CameraModel& cam,
+                         const std::string& title, const std::string& subtitle) {
+  TopViewScene s;
+  s.title = title;
+  s.subtitle = subtitle;
+  s.cell_size = pipeline.map().resolution();
+  const float z_lo = pipeline.config().ground_height + 0.25f;
+  pipeline.map().for_each_occupied([&](std::uint64_t, const Eigen::Vector3f& c) {
+    if (c.z() > z_lo && c.z() < z_lo + 1.8f) s.occupied_cells.push_back(c.cast<double>());
+  });
+  if (world != nullptr) s.static_world = *world;
+  for (std::size_t i = 0; i < out.num_obstacles; ++i) {
+    const TrackedObstacle& o = out.obstacles[i];
+    TopViewObstacle t;
+    t.center = o.box.center().head<2>().cast<double>();
+    t.size = o.box.size().head<2>().cast<double>();
+    t.velocity = o.velocity.head<2>().cast<double>();
+    t.dynamic = o.dynamic;
+    std::ostringstream label;
+    label << o.id;
+    if (o.dynamic) label << "  " << std::setprecision(2) << std::fixed << o.speed << " m/s";
+    t.label = label.str();
+    s.obstacles.push_back(t);
+  }
+  for (const auto& [id, pts] : ps.dynamic_paths) {
+    if (pts.size() >= 2) s.tracked_paths.push_back(TopViewPath{pts, static_cast<int>(id)});
+  }
+  // Ground truth: each obstacle's path up to now, and its box at the current stamp.
+  std::map<int, TopViewPath> gt;
+  for (const ObstacleRecord& r : truth) {
+    if (r.stamp > until_stamp + 1e-6) continue;
+    TopViewPath& p = gt[r.id];
+    p.id = r.id;
+    p.points.push_back(r.center.head<2>());
+    if (std::fabs(r.stamp - until_stamp) < 1e-6) {
+      TopViewObstacle b;
+      b.center = r.center.head<2>();
+      b.size = r.size.head<2>();
+      b.velocity = r.velocity.head<2>();
+      b.dynamic = true;
+      s.ground_truth_boxes.push_back(b);
+    }
+  }
+  for (auto& [id, p] : gt) s.ground_truth_paths.push_back(p);
+  auto path_of = [](const PathPrediction& pr) {
+    TopViewPath p;
+    p.id = static_cast<int>(pr.track_id);
+    for (std::size_t k = 0; k < pr.num_samples; ++k) {
+      p.points.push_back(pr.position[k].head<2>().cast<double>());
+    }
+    return p;
+  };
+  for (std::size_t i = 0; i < out.num_predictions; ++i) {
+    s.predicted_paths.push_back(path_of(out.predictions[i]));
+    if (pipeline.config().run_linear_baseline) {
+      s.linear_paths.push_back(path_of(out.linear_predictions[i]));
+    }
+  }
+  s.camera_trajectory = ps.camera;
+  s.show_camera = true;
+  s.camera_position = camera_pose.translation.head<2>().cast<double>();
+  const Eigen::Vector3f forward = camera_pose.rotation * Eigen::Vector3f::UnitZ();
+  s.camera_yaw = std::atan2(forward.y(), forward.x());
+  s.camera_hfov = 2.0 * std::atan2(0.5 * cam.width, cam.fx);
+  s.camera_range = pipeline.config().map.max_depth;
+  return s;
+}
+
+double percentile_ms(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t r = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, r == 0 ? 0 : r - 1)];
+}
+
+int run(const Options& o) {
+  const Sequence seq = read_sequence(o.seq);
+  if (seq.frames.empty()) throw ToolError(o.seq + ": no depth image has a pose; nothing to replay");
+  for (const std::string& w : seq.warnings) std::cerr << "warning: " << w << "\n";
+
+  PipelineConfig config;
+  const CameraModel& cam = seq.camera;
+  if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) {
+    throw ToolError(o.seq + "/camera.txt: image " + std::to_string(cam.width) + "x" +
+                    std::to_string(cam.height) + " is larger than the library's maximum " +
+                    std::to_string(kMaxImageWidth) + "x" + std::to_string(kMaxImageHeight));
+  }
+  config.camera.fx = static_cast<float>(cam.fx);
+  config.camera.fy = static_cast<float>(cam.fy);
+  config.camera.cx = static_cast<float>(cam.cx);
+  config.camera.cy = static_cast<float>(cam.cy);
+  config.camera.width = cam.width;
+  config.camera.height = cam.height;
+  config.camera.depth_scale = static_cast<float>(1.0 / cam.depth_factor);
+  if (!o.params.empty()) {
+    const std::string err = apply_params_file(o.params, config);
+    if (!err.empty()) throw ToolError(err);
+  }
+  auto pipeline = std::make_unique<Pipeline>();
+  ConfigError ce;
+  if (!ok(pipeline->init(config, &ce))) {
+    throw ToolError(std::string("configuration rejected: ") + ce.field + ": " + ce.reason);
+  }
+
+  std::unique_ptr<StaticWorld> world;
+  const std::string world_path = join_path(o.seq, "static_world.txt");
+  if (file_exists(world_path)) world = std::make_unique<StaticWorld>(read_static_world(world_path));
+  std::vector<ObstacleRecord> truth;
+  const std::string truth_path = join_path(o.seq, "obstacles.txt");
+  if (file_exists(truth_path)) truth = read_obstacles(truth_path);
+
+  make_dir(o.out);
+  if (o.picture_every > 0) make_dir(join_path(o.out, "frames"));
+  std::ofstream tracks = open_out(join_path(o.out, "tracks.csv"));
+  std::ofstream preds = open_out(join_path(o.out, "predictions.csv"));
+  std::ofstream linear = open_out(join_path(o.out, "predictions_linear.csv"));
+  std::ofstream timing = open_out(join_path(o.out, "timing.csv"));
+  tracks << "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n";
+  preds << "stamp,id,path,probability,k,t,x,y,z\n";
+  linear << "stamp,id,path,probability,k,t,x,y,z\n";
+  timing << "stamp";
+  for (std::size_t k = 0; k < kStageCount; ++k) timing << "," << to_string(static_cast<Stage>(k));
+  timing << ",total\n";
+
+  auto out = std::make_unique<FrameOutput>();
+  PictureState ps;
+  const std::size_t n = o.max_frames >= 0
+                            ? std::min(seq.frames.size(), static_cast<std::size_t>(o.max_frames))
+                            : seq.frames.size();
+  std::set<std::uint32_t> ids, dynamic_ids;
+  std::size_t rejected = 0, pictures = 0;
+  std::vector<double> decode_ms, process_ms;
+  std::array<std::vector<double>, kStageCount> stage_ms;
+  Pose last_pose;
+  double last_stamp = 0.0;
+  const double t_start = wall_seconds();
+  double t_report = t_start;
+
+  auto write_predictions = [](std::ofstream& f, const std::string& stamp, const PathPrediction& p) {
+    for (std::size_t k = 0; k < p.num_samples; ++k) {
+      f << stamp << "," << p.track_id << "," << p.chosen << "," << p.probability[p.chosen] << ","
+        << k << "," << p.time[k] << "," << p.position[k].x() << "," << p.position[k].y() << ","
+        << p.position[k].z() << "\n";
+    }
+  };
+
+  for (std::size_t i = 0; i < n; ++i) {
+    const SequenceFrame& sf = seq.frames[i];
+    const double t0 = wall_seconds();
+    const Image16 depth = load_depth(seq, sf);
+    decode_ms.push_back(1e3 * (wall_seconds() - t0));
+    Frame frame;
+    frame.stamp = static_cast<Stamp>(std::llround(sf.stamp * 1e9));
+    frame.T_map_camera = to_pose(sf.pose);
+    frame.depth = DepthView{depth.pixels.data(), depth.width, depth.height,
+                            depth.width * static_cast<int>(sizeof(std::uint16_t))};
+    const Status s = pipeline->process(frame, *out);
+    if (!ok(s)) {
+      ++rejected;
+      std::cerr << "warning: " << sf.depth_path << " at " << sf.stamp_text
+                << ": frame rejected: " << to_string(s) << "\n";
+      continue;
+    }
+    process_ms.push_back(1e-6 * static_cast<double>(out->total_ns));
+    for (std::size_t k = 0; k < kStageCount; ++k) {
+      stage_ms[k].push_back(1e-6 * static_cast<double>(out->stage_ns[k]));
+    }
+    last_pose = frame.T_map_camera;
+    last_stamp = sf.stamp;
+    ps.camera.push_back(frame.T_map_camera.translation.head<2>().cast<double>());
+
+    // tracks.csv: every obstacle; path = chosen prediction of a dynamic track, else -1.
+    for (std::size_t k = 0; k < out->num_obstacles; ++k) {
+      const TrackedObstacle& ob = out->obstacles[k];
+      int path = -1;
+      for (std::size_t j = 0; j < out->num_predictions; ++j) {
+        if (out->predictions[j].track_id == ob.id) path = static_cast<int>(out->predictions[j].chosen);
+      }
+      const Eigen::Vector3f c = ob.box.center(), sz = ob.box.size();
+      tracks << sf.stamp_text << "," << ob.id << "," << c.x() << "," << c.y() << "," << c.z()
+             << "," << ob.velocity.x() << "," << ob.velocity.y() << "," << ob.velocity.z() << ","
+             << sz.x() << "," << sz.y() << "," << sz.z() << "," << (ob.dynamic ? 1 : 0) << ","
+             << path << "\n";
+      ids.insert(ob.id);
+      if (ob.dynamic) {
+        dynamic_ids.insert(ob.id);
+        ps.dynamic_paths[ob.id].push_back(c.head<2>().cast<double>());
+      }
+    }
+    for (std::size_t j = 0; j < out->num_predictions; ++j) {
+      write_predictions(preds, sf.stamp_text, out->predictions[j]);
+      if (config.run_linear_baseline) write_predictions(linear, sf.stamp_text, out->linear_predictions[j]);
+    }
+    timing << sf.stamp_text;
+    for (std::size_t k = 0; k < kStageCount; ++k) timing << "," << 1e-3 * static_cast<double>(out->stage_ns[k]);
+    timing << "," << 1e-3 * static_cast<double>(out->total_ns) << "\n";
+
+    if (o.picture_every > 0 && i % static_cast<std::size_t>(o.picture_every) == 0) {
+      char name[64];
+      std::snprintf(name, sizeof(name), "frames/frame_%05zu.png", i);
+      render_top_view(build_scene(*pipeline, *out, ps, world.get(), truth, sf.stamp, last_pose,
+                                  cam, "dynamap  " + o.seq, "frame " + std::to_string(i) + "  t = " + sf.stamp_text),
+                      join_path(o.out, name));
+      ++pictures;
+    }
+    const double now = wall_seconds();
+    if (!o.quiet && (now - t_report > 1.0 || i + 1 == n)) {
+      std::fprintf(stderr, "\rreplay: frame %zu/%zu  (%.0f frames/s)   ", i + 1, n,
+                   static_cast<double>(i + 1) / std::max(1e-9, now - t_start));
+      t_report = now;
+    }
+  }
+  if (!o.quiet) std::fprintf(stderr, "\n");
+  const double elapsed = wall_seconds() - t_start;
+
+  render_top_view(build_scene(*pipeline, *out, ps, world.get(), truth, last_stamp, last_pose, cam,
+                              "dynamap: final state of " + o.seq,
+                              std::to_string(n) + " frames, " + std::to_string(dynamic_ids.size()) +
+                                  " dynamic tracks"),
+                  join_path(o.out, "topview.png"));
+
+  const PipelineCounters& c = pipeline->counters();
+  std::printf("dynamap-replay %s -> %s\n", o.seq.c_str(), o.out.c_str());
+  std::printf("  frames: %zu listed, %zu without pose (skipped), %zu processed, %zu rejected\n",
+              seq.images_listed, seq.images_without_pose, process_ms.size(), rejected);
+  std::printf("  tracks: %zu ids, %zu ever labelled dynamic\n", ids.size(), dynamic_ids.size());
+  std::printf("  time per frame (ms)   median     p99     max\n");
+  for (std::size_t k = 0; k < kStageCount; ++k) {
+    std::printf("    %-16s %9.3f %7.3f %7.3f\n", to_string(static_cast<Stage>(k)),
+                percentile_ms(stage_ms[k], 0.5), percentile_ms(stage_ms[k], 0.99),
+                percentile_ms(stage_ms[k], 1.0));
+  }
+  std::printf("    %-16s %9.3f %7.3f %7.3f\n", "total", percentile_ms(process_ms, 0.5),
+              percentile_ms(process_ms, 0.99), percentile_ms(process_ms, 1.0));
+  std::printf("    %-16s %9.3f %7.3f %7.3f\n", "png decode", percentile_ms(decode_ms, 0.5),
+              percentile_ms(decode_ms, 0.99), percentile_ms(decode_ms, 1.0));
+  std::printf("  counters: rays dropped %llu, blocks evicted %llu, detections dropped %llu, "
+              "tracks refused %llu, frames rejected %llu\n",
+              static_cast<unsigned long long>(c.rays_dropped),
+              static_cast<unsigned long long>(c.blocks_evicted),
+              static_cast<unsigned long long>(c.detections_dropped),
+              static_cast<unsigned long long>(c.tracks_refused),
+              static_cast<unsigned long long>(c.frames_rejected));
+  std::printf("  wall time %.2f s (%.1f frames/s incl. PNG decode and output)\n", elapsed,
+              static_cast<double>(n) / std::max(1e-9, elapsed));
+  std::printf("  wrote tracks.csv, predictions.csv, predictions_linear.csv, timing.csv, "
+              "topview.png%s\n",
+              pictures > 0 ? (", " + std::to_string(pictures) + " pictures in frames/").c_str() : "");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  int exit_code = 2;
+  if (!parse_args(argc, argv, o, exit_code)) return exit_code;
+  try {
+    return run(o);
+  } catch (const std::exception& e) {
+    std::cerr << "dynamap-replay: error: " << e.what() << "\n";
+    return 1;
+  }
+}
