@@ -423,7 +423,8 @@ TEST(Simulator, SameSeedSameBytesOtherSeedOtherNoise) {
     EXPECT_EQ(slurp(e.path().string()), slurp(b / rel)) << rel;
     ++files;
   }
-  EXPECT_EQ(files, 3u + 6u);  // 3 depth images + depth/groundtruth/camera/obstacles/world/picture
+  EXPECT_EQ(files,
+            3u + 7u);  // 3 depth images + depth/groundtruth/camera/obstacles/world + 2 pictures
   const Sequence sa = read_sequence(a.str()), sc = read_sequence(c.str());
   EXPECT_NE(slurp(sa.frames[1].depth_path), slurp(sc.frames[1].depth_path));
 }

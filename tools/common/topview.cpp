@@ -424,4 +424,41 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
   }
 }
 
+void render_depth_preview(const Image16& depth, double depth_factor, double max_depth,
+                          const std::string& caption, const std::string& png_path) {
+  const int caption_h = 28;
+  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
+      cairo_image_surface_create(CAIRO_FORMAT_RGB24, depth.width, depth.height + caption_h),
+      cairo_surface_destroy);
+  cairo_surface_flush(surface.get());
+  unsigned char* data = cairo_image_surface_get_data(surface.get());
+  const int stride = cairo_image_surface_get_stride(surface.get());
+  for (int v = 0; v < depth.height; ++v) {
+    auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(v) * stride);
+    for (int u = 0; u < depth.width; ++u) {
+      const std::uint16_t d = depth.at(u, v);
+      if (d == 0) {
+        row[u] = 0x500000u;
+        continue;
+      }
+      const double m = d / depth_factor;
+      const auto g =
+          static_cast<std::uint32_t>(std::clamp(255.0 * (1.0 - m / max_depth), 20.0, 255.0));
+      row[u] = (g << 16) | (g << 8) | g;
+    }
+  }
+  cairo_surface_mark_dirty(surface.get());
+  std::unique_ptr<cairo_t, decltype(&cairo_destroy)> context(cairo_create(surface.get()),
+                                                             cairo_destroy);
+  cairo_t* cr = context.get();
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_rectangle(cr, 0, depth.height, depth.width, caption_h);
+  cairo_fill(cr);
+  set(cr, kText);
+  text(cr, 8, depth.height + 19, caption, 13);
+  if (cairo_surface_write_to_png(surface.get(), png_path.c_str()) != CAIRO_STATUS_SUCCESS) {
+    throw ToolError(png_path + ": cannot write picture");
+  }
+}
+
 }  // namespace dynamap::tools

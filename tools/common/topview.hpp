@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "common/png_io.hpp"
 #include "common/static_world.hpp"
 
 namespace dynamap::tools {
@@ -55,5 +56,10 @@ struct TopViewScene {
 /// Draws the picture (about `plot_px` pixels along the longer side of the plot) and writes PNG.
 /// Throws ToolError when the file cannot be written.
 void render_top_view(const TopViewScene& scene, const std::string& png_path, int plot_px = 900);
+
+/// Writes a depth image as a viewable 8-bit PNG: near = bright, far = dark (linear up to
+/// max_depth metres), no measurement = dark red, with a caption. Throws ToolError.
+void render_depth_preview(const Image16& depth, double depth_factor, double max_depth,
+                          const std::string& caption, const std::string& png_path);
 
 }  // namespace dynamap::tools

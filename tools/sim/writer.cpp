@@ -89,6 +89,12 @@ SimulateSummary simulate(const Scene& scene, const std::string& out_dir,
 
     const std::string name = "depth/" + stamp + ".png";
     write_png16(join_path(out_dir, name), frame.depth, opt.png_compression);
+    if (opt.picture && f == opt.frames / 2) {
+      render_depth_preview(
+          frame.depth, cam.depth_factor, 8.0,
+          "frame " + std::to_string(f) + ": bright = near, dark = far (8 m), dark red = no depth",
+          join_path(out_dir, "depth_preview.png"));
+    }
     depth_txt << stamp << " " << name << "\n";
     char buf[256];
     const auto& q = pose.rotation;
