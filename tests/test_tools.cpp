@@ -1,0 +1,588 @@
+// Tests of the host tools (tools/): PNG and sequence I/O, the scene simulator and the evaluator.
+#include <gtest/gtest.h>
+
+#include <cairo.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "common/obstacles.hpp"
+#include "common/png_io.hpp"
+#include "common/results.hpp"
+#include "common/sequence.hpp"
+#include "common/static_world.hpp"
+#include "common/text_io.hpp"
+#include "common/topview.hpp"
+#include "eval/metrics.hpp"
+#include "sim/renderer.hpp"
+#include "sim/scene.hpp"
+#include "sim/writer.hpp"
+
+namespace fs = std::filesystem;
+using namespace dynamap::tools;
+
+namespace {
+
+// A fresh directory under /tmp, removed at the end of the test.
+class TempDir {
+ public:
+  TempDir() {
+    char tmpl[] = "/tmp/dynamap_test_tools_XXXXXX";
+    const char* p = ::mkdtemp(tmpl);
+    if (p == nullptr) throw std::runtime_error("mkdtemp failed");
+    path_ = p;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
+  const std::string& str() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+void write_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Expects fn() to throw ToolError whose message contains every fragment.
+template <class F>
+void expect_error(F&& fn, std::initializer_list<const char*> fragments) {
+  try {
+    fn();
+    ADD_FAILURE() << "expected a ToolError";
+  } catch (const ToolError& e) {
+    for (const char* f : fragments) {
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << f << "'";
+    }
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------- PNG ------
+
+TEST(PngIo, SixteenBitRoundTripKeepsEveryValue) {
+  TempDir dir;
+  Image16 img;
+  img.width = 7;
+  img.height = 5;
+  for (int i = 0; i < 35; ++i) img.pixels.push_back(static_cast<std::uint16_t>(i * 1871 + 3));
+  img.pixels[4] = 65535;
+  img.pixels[5] = 0;
+  write_png16(dir / "a.png", img);
+  const Image16 back = read_png16(dir / "a.png");
+  EXPECT_EQ(back.width, 7);
+  EXPECT_EQ(back.height, 5);
+  EXPECT_EQ(back.pixels, img.pixels);
+}
+
+TEST(PngIo, EightBitOrColourPngIsAClearErrorNamingTheFile) {
+  TempDir dir;
+  cairo_surface_t* s = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, 4, 4);
+  ASSERT_EQ(cairo_surface_write_to_png(s, (dir / "rgba.png").c_str()), CAIRO_STATUS_SUCCESS);
+  cairo_surface_destroy(s);
+  expect_error([&] { (void)read_png16(dir / "rgba.png"); }, {"rgba.png", "16-bit", "8-bit RGBA"});
+  write_file(dir / "text.png", "not a png at all");
+  expect_error([&] { (void)read_png16(dir / "text.png"); }, {"text.png", "not a PNG"});
+  expect_error([&] { (void)read_png16(dir / "missing.png"); }, {"missing.png", "cannot open"});
+}
+
+// ----------------------------------------------------------------------------- sequence ------
+
+namespace {
+void write_small_sequence(const TempDir& dir) {
+  write_file(dir / "camera.txt",
+             "# camera\nfx 400.0   # inline comment\nfy 401\ndepth_factor 1000\nworld_z_up 1\n"
+             "future_key 3\n");
+  write_file(dir / "groundtruth.txt",
+             "# ground truth\n"
+             "1.00 0 0 0 0 0 0 1\n"
+             "1.04 0.4 0 0 0 0 0.7071068 0.7071068 extra columns here\n"
+             "1.20 1 1 1 0 0 0 1\n");
+  write_file(dir / "depth.txt",
+             "# depth images\n"
+             "0.95 depth/a.png\n"    // before the first pose: skipped
+             "1.00 depth/b.png\n"    // exact pose
+             "1.02 depth/c.png x\n"  // halfway between 1.00 and 1.04; extra column ignored
+             "\n"
+             "1.10 depth/d.png\n"    // 0.06 s after and 0.10 s before a pose: skipped
+             "1.20 depth/e.png\n");  // exact pose
+}
+}  // namespace
+
+TEST(SequenceReader, InterpolatesPosesAndSkipsImagesWithoutPose) {
+  TempDir dir;
+  write_small_sequence(dir);
+  const Sequence seq = read_sequence(dir.str());
+  EXPECT_EQ(seq.images_listed, 5u);
+  EXPECT_EQ(seq.images_without_pose, 2u);
+  ASSERT_EQ(seq.frames.size(), 3u);
+  EXPECT_EQ(seq.frames[1].stamp_text, "1.02");
+  EXPECT_EQ(seq.frames[1].depth_path, dir / "depth/c.png");
+  // Linear translation, slerp rotation (half of 90 degrees about z).
+  EXPECT_NEAR(seq.frames[1].pose.translation.x(), 0.2, 1e-9);
+  const Eigen::AngleAxisd aa(seq.frames[1].pose.rotation);
+  EXPECT_NEAR(aa.angle(), M_PI / 4, 1e-6);
+  EXPECT_NEAR(aa.axis().z(), 1.0, 1e-6);
+  EXPECT_NEAR(seq.frames[2].pose.translation.y(), 1.0, 1e-12);
+  // camera.txt: given keys, defaults for the others, unknown keys reported and ignored.
+  EXPECT_DOUBLE_EQ(seq.camera.fx, 400.0);
+  EXPECT_DOUBLE_EQ(seq.camera.fy, 401.0);
+  EXPECT_DOUBLE_EQ(seq.camera.cx, 320.1);
+  EXPECT_DOUBLE_EQ(seq.camera.depth_factor, 1000.0);
+  EXPECT_EQ(seq.camera.world_z_up, 1);
+  EXPECT_FALSE(seq.gravity_aligned);
+  ASSERT_EQ(seq.warnings.size(), 1u);
+  EXPECT_NE(seq.warnings[0].find("camera.txt:6"), std::string::npos);
+}
+
+TEST(SequenceReader, WithoutCameraFileUsesTumDefaultsAndAlignsGravity) {
+  TempDir dir;
+  write_small_sequence(dir);
+  fs::remove(dir / "camera.txt");
+  const Sequence seq = read_sequence(dir.str());
+  EXPECT_DOUBLE_EQ(seq.camera.fx, 535.4);
+  EXPECT_DOUBLE_EQ(seq.camera.depth_factor, 5000.0);
+  EXPECT_EQ(seq.camera.world_z_up, 0);
+  ASSERT_TRUE(seq.gravity_aligned);
+  // The first camera's image "down" (+y) is world -z after alignment.
+  const Eigen::Vector3d down = seq.frames[0].pose.rotation * Eigen::Vector3d::UnitY();
+  EXPECT_NEAR((down - Eigen::Vector3d(0, 0, -1)).norm(), 0.0, 1e-9);
+  // Relative motion is unchanged: distance between first and last camera positions.
+  EXPECT_NEAR((seq.frames[2].pose.translation - seq.frames[0].pose.translation).norm(),
+              std::sqrt(3.0), 1e-9);
+}
+
+TEST(SequenceReader, MalformedLinesNameFileAndLine) {
+  TempDir dir;
+  write_small_sequence(dir);
+  write_file(dir / "groundtruth.txt", "# gt\n1.0 0 0 0 0 0 0 1\n1.1 0 0 zz 0 0 0 1\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"groundtruth.txt:3", "tz", "zz"});
+  write_file(dir / "groundtruth.txt", "1.0 0 0 0 0 0 0\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"groundtruth.txt:1", "7 fields"});
+  write_small_sequence(dir);
+  write_file(dir / "depth.txt", "# d\n1.0\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"depth.txt:2", "timestamp filename"});
+  write_small_sequence(dir);
+  write_file(dir / "camera.txt", "fx\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"camera.txt:1"});
+  write_file(dir / "camera.txt", "fx abc\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"camera.txt:1", "fx", "abc"});
+  fs::remove(dir / "camera.txt");
+  fs::remove(dir / "groundtruth.txt");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"groundtruth.txt", "missing"});
+}
+
+TEST(SequenceReader, DepthImageOfWrongKindIsAnErrorNamingTheFile) {
+  TempDir dir;
+  write_small_sequence(dir);
+  fs::create_directory(dir / "depth");
+  cairo_surface_t* s = cairo_image_surface_create(CAIRO_FORMAT_RGB24, 640, 480);
+  cairo_surface_write_to_png(s, (dir / "depth/b.png").c_str());
+  cairo_surface_destroy(s);
+  const Sequence seq = read_sequence(dir.str());
+  expect_error([&] { (void)load_depth(seq, seq.frames[0]); }, {"depth/b.png", "16-bit"});
+  Image16 small;
+  small.width = 10;
+  small.height = 10;
+  small.pixels.assign(100, 1);
+  write_png16(dir / "depth/c.png", small);
+  expect_error([&] { (void)load_depth(seq, seq.frames[1]); }, {"depth/c.png", "10x10"});
+}
+
+TEST(ObstaclesFile, RoundTripAndMalformedLines) {
+  TempDir dir;
+  {
+    std::ofstream out(dir / "obstacles.txt");
+    write_obstacles_header(out);
+    ObstacleRecord r;
+    r.stamp_text = "12.500000";
+    r.id = 3;
+    r.center = {1, 2, 0.85};
+    r.velocity = {0.5, -0.25, 0};
+    r.size = {0.5, 0.5, 1.7};
+    r.visible = 0.75;
+    write_obstacle_line(out, r);
+  }
+  const auto rows = read_obstacles(dir / "obstacles.txt");
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].id, 3);
+  EXPECT_DOUBLE_EQ(rows[0].stamp, 12.5);
+  EXPECT_DOUBLE_EQ(rows[0].velocity.y(), -0.25);
+  EXPECT_DOUBLE_EQ(rows[0].visible, 0.75);
+  write_file(dir / "obstacles.txt", "# h\n1.0 1 0 0 0 0 0 0 1 1 1 1.5\n");
+  expect_error([&] { (void)read_obstacles(dir / "obstacles.txt"); },
+               {"obstacles.txt:2", "visible"});
+}
+
+TEST(ResultsCsv, ColumnsByNameAndClearErrors) {
+  TempDir dir;
+  write_file(dir / "tracks.csv",
+             "id,stamp,extra,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n"
+             "4,1.000000,zz,1,2,3,0.5,0,0,0.5,0.6,1.7,1,-1\n");
+  const auto rows = read_tracks_csv(dir / "tracks.csv");
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].id, 4);
+  EXPECT_TRUE(rows[0].dynamic);
+  EXPECT_EQ(rows[0].path, -1);
+  EXPECT_DOUBLE_EQ(rows[0].size.y(), 0.6);
+  write_file(dir / "tracks.csv", "stamp,id,x\n");
+  expect_error([&] { (void)read_tracks_csv(dir / "tracks.csv"); }, {"tracks.csv:1", "'y'"});
+  write_file(dir / "predictions.csv",
+             "stamp,id,path,probability,k,t,x,y,z\n1.0,1,2,0.5,0,0,1,1,1\n1.0,1,2,0.5,1,x,1,1,1\n");
+  expect_error([&] { (void)read_predictions_csv(dir / "predictions.csv"); },
+               {"predictions.csv:3", "'t'"});
+}
+
+// ---------------------------------------------------------------------------- simulator ------
+
+namespace {
+sim::Scene wall_scene() {
+  sim::Scene s;
+  s.name = "test";
+  s.world.has_floor = true;
+  s.world.floor_z = 0.0;
+  s.world.boxes.push_back(StaticBox{{5.0, -20.0, 0.0}, {5.2, 20.0, 3.0}});
+  return s;
+}
+PoseD camera_at(double x, double y, double z, double yaw, double pitch) {
+  PoseD p;
+  p.translation = {x, y, z};
+  p.rotation = sim::camera_rotation(yaw, pitch);
+  return p;
+}
+sim::RenderOptions exact() {
+  sim::RenderOptions o;
+  o.noise.enabled = false;
+  return o;
+}
+}  // namespace
+
+TEST(Simulator, DepthPixelEqualsAnalyticDistanceToKnownPlanes) {
+  const sim::Scene scene = wall_scene();
+  const CameraModel cam = sim::sim_camera_model();
+  const auto f = sim::render_frame(scene, cam, camera_at(0, 0, 1.0, 0, 0), {}, exact());
+  // Wall x = 5 facing a camera looking along +x: camera-z depth is 5 m for every wall pixel.
+  EXPECT_EQ(f.depth.at(320, 240), 5000);
+  EXPECT_EQ(f.depth.at(100, 200), 5000);
+  EXPECT_EQ(f.depth.at(600, 100), 5000);
+  // Floor z = 0 seen 1 m below: depth = h * fy / (v - cy).
+  for (int v : {350, 400, 479}) {  // floor nearer than the wall
+    const double expected = 1.0 * cam.fy / (v - cam.cy);
+    EXPECT_NEAR(f.depth.at(200, v) / 1000.0, expected, 0.0006) << "row " << v;
+  }
+  // Tilted camera: the optical axis meets the floor at depth h / sin(pitch).
+  const auto g = sim::render_frame(scene, cam, camera_at(0, 0, 1.0, 0, 0.2), {}, exact());
+  EXPECT_NEAR(g.depth.at(320, 240) / 1000.0, 1.0 / std::sin(0.2), 0.0006);
+  // Turned 90 degrees left (+y): the wall is out of view, only the floor remains.
+  const auto h = sim::render_frame(scene, cam, camera_at(0, 0, 1.0, M_PI / 2, 0), {}, exact());
+  EXPECT_EQ(h.depth.at(320, 100), 0);
+}
+
+TEST(Simulator, NoiseGrowsWithDistanceAndQuantisesToMillimetres) {
+  const sim::Scene scene = wall_scene();
+  const CameraModel cam = sim::sim_camera_model();
+  auto spread = [&](double x) {
+    sim::RenderOptions o;
+    const auto f = sim::render_frame(scene, cam, camera_at(x, 0, 1.0, 0, 0), {}, o);
+    const double truth = (5.0 - x) * 1000.0;
+    double sum = 0;
+    int n = 0;
+    for (int v = 150; v < 200; ++v) {
+      for (int u = 200; u < 440; ++u) {
+        if (f.depth.at(u, v) == 0) continue;
+        sum += (f.depth.at(u, v) - truth) * (f.depth.at(u, v) - truth);
+        ++n;
+      }
+    }
+    return std::sqrt(sum / n) / 1000.0;
+  };
+  const double near = spread(4.0), far = spread(0.0);  // 1 m and 5 m from the wall
+  const sim::DepthNoise model;
+  EXPECT_NEAR(near, model.sigma0 + model.sigma_quadratic * 1.0, 0.002);
+  EXPECT_NEAR(far, model.sigma0 + model.sigma_quadratic * 25.0, 0.01);
+}
+
+TEST(Simulator, VisibleFractionAgreesWithRenderedPixels) {
+  // A walker passes behind a pillar. Independent count: visible pixels are where the full
+  // image differs from the static-only image; the projected area is the walker rendered alone
+  // by a camera three times as large with the same rays (so parts outside the image count).
+  sim::Scene scene;
+  scene.world.has_floor = true;
+  scene.world.cylinders.push_back(StaticCylinder{{4.0, 0.0}, 0.3, 0.0, 2.5});
+  const CameraModel cam = sim::sim_camera_model();
+  CameraModel wide = cam;
+  wide.width *= 3;
+  wide.height *= 3;
+  wide.cx += cam.width;
+  wide.cy += cam.height;
+  const PoseD pose = camera_at(0, 0, 1.3, 0, 0.05);
+  sim::RenderOptions only_static = exact(), only_walkers = exact();
+  only_static.walkers = false;
+  only_walkers.static_geometry = false;
+  double lowest = 1.0, highest = 0.0;
+  for (double y : {-3.9, -2.0, -0.6, -0.35, -0.1, 0.0, 0.2, 0.45, 1.2, 4.4}) {
+    sim::WalkerState w;
+    w.position = {6.5, y};
+    w.radius = 0.25;
+    w.height = 1.7;
+    const auto full = sim::render_frame(scene, cam, pose, {w}, exact());
+    const auto bare = sim::render_frame(scene, cam, pose, {w}, only_static);
+    const auto alone = sim::render_frame(scene, wide, pose, {w}, only_walkers);
+    long visible = 0, projected = 0;
+    for (std::size_t i = 0; i < full.range.size(); ++i) visible += full.range[i] != bare.range[i];
+    for (float r : alone.range) projected += r > 0.0f;
+    const double expected = projected > 0 ? static_cast<double>(visible) / projected : 0.0;
+    ASSERT_EQ(full.visible.size(), 1u);
+    EXPECT_NEAR(full.visible[0], expected, 0.01) << "walker at y = " << y;
+    lowest = std::min(lowest, full.visible[0]);
+    highest = std::max(highest, full.visible[0]);
+  }
+  EXPECT_LT(lowest, 0.2);    // hidden behind the pillar or out of view
+  EXPECT_GT(highest, 0.95);  // in the open
+  // Behind the camera: not visible at all.
+  sim::WalkerState behind;
+  behind.position = {-3.0, 0.0};
+  EXPECT_EQ(sim::render_frame(scene, cam, pose, {behind}, exact()).visible[0], 0.0);
+}
+
+TEST(Simulator, ObstaclesFileAgreesWithRenderedFrames) {
+  TempDir dir;
+  const sim::Scene scene = sim::make_scene("env_a", 3);
+  sim::SimulateOptions opt;
+  opt.frames = 4;
+  opt.seed = 3;
+  opt.picture = false;
+  sim::simulate(scene, dir.str(), opt);
+  const Sequence seq = read_sequence(dir.str());
+  ASSERT_EQ(seq.frames.size(), 4u);
+  EXPECT_EQ(seq.camera.world_z_up, 1);
+  const auto obstacles = read_obstacles(dir / "obstacles.txt");
+  ASSERT_EQ(obstacles.size(), 4u * scene.walkers.size());
+  std::vector<sim::WalkerMotion> motions(scene.walkers.begin(), scene.walkers.end());
+  const CameraModel cam = sim::sim_camera_model();
+  std::size_t row = 0;
+  int seen = 0;
+  for (std::size_t f = 0; f < seq.frames.size(); ++f) {
+    const auto states = sim::walker_states(motions, f / scene.fps);
+    const auto frame = sim::render_frame(scene, cam, seq.frames[f].pose, states, exact());
+    const Image16 depth = load_depth(seq, seq.frames[f]);
+    for (std::size_t k = 0; k < states.size(); ++k, ++row) {
+      const auto& o = obstacles[row];
+      EXPECT_EQ(o.stamp_text, seq.frames[f].stamp_text);
+      EXPECT_NEAR(o.center.x(), states[k].position.x(), 1e-4);
+      EXPECT_NEAR(o.visible, frame.visible[k], 1e-4);
+      EXPECT_NEAR(o.size.z(), 2 * o.center.z(), 1e-3);  // standing on the floor
+      if (o.visible < 0.5) continue;
+      // The depth image shows the walker where the id buffer says: median depth of its pixels
+      // equals the camera-frame depth of its surface within the noise.
+      ++seen;
+      long agree = 0, total = 0;
+      for (std::size_t i = 0; i < frame.id.size(); ++i) {
+        if (frame.id[i] != static_cast<int>(k) || depth.pixels[i] == 0) continue;
+        ++total;
+        const double z = frame.range[i];
+        const double sigma = sim::DepthNoise().sigma0 + sim::DepthNoise().sigma_quadratic * z * z;
+        agree += std::fabs(depth.pixels[i] / 1000.0 - z) < 3.0 * sigma + 0.001;
+      }
+      EXPECT_GT(total, 100);
+      EXPECT_GT(static_cast<double>(agree) / total, 0.95);
+    }
+  }
+  EXPECT_GT(seen, 0);
+}
+
+TEST(Simulator, SameSeedSameBytesOtherSeedOtherNoise) {
+  TempDir a, b, c;
+  sim::SimulateOptions opt;
+  opt.frames = 3;
+  opt.seed = 7;
+  sim::simulate(sim::make_scene("env_c", 7), a.str(), opt);
+  sim::simulate(sim::make_scene("env_c", 7), b.str(), opt);
+  opt.seed = 8;
+  sim::simulate(sim::make_scene("env_c", 8), c.str(), opt);
+  std::size_t files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(a.str())) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = fs::relative(e.path(), a.str()).string();
+    EXPECT_EQ(slurp(e.path().string()), slurp(b / rel)) << rel;
+    ++files;
+  }
+  EXPECT_EQ(files,
+            3u + 7u);  // 3 depth images + depth/groundtruth/camera/obstacles/world + 2 pictures
+  const Sequence sa = read_sequence(a.str()), sc = read_sequence(c.str());
+  EXPECT_NE(slurp(sa.frames[1].depth_path), slurp(sc.frames[1].depth_path));
+}
+
+TEST(Simulator, BuiltInScenesAreSound) {
+  for (const auto& name : sim::scene_names()) {
+    const sim::Scene s = sim::make_scene(name, 1);
+    EXPECT_EQ(s.name, name);
+    if (name == "standing") {
+      EXPECT_TRUE(s.walkers.empty());
+      EXPECT_GE(s.world.cylinders.size(), 3u);  // the people who only stand
+    } else {
+      EXPECT_GE(s.walkers.size(), 2u) << name;
+    }
+    std::vector<sim::WalkerMotion> motions(s.walkers.begin(), s.walkers.end());
+    for (std::size_t k = 0; k < motions.size(); ++k) {
+      const auto& w = s.walkers[k];
+      EXPECT_GE(w.speed, 0.5);
+      EXPECT_LE(w.speed, 1.5);
+      // Smoothed loops keep clear of the static world.
+      double clearance = 1e9;
+      for (const auto& p : motions[k].path().points) {
+        clearance = std::min(clearance, s.world.top_view_distance(p, 0.2, w.height));
+      }
+      EXPECT_GE(clearance, w.radius + 0.1) << name << " walker " << k + 1;
+    }
+    // Over the default length: speed never above the cruise speed (+ numerical slack) and
+    // walkers never overlap each other.
+    int overlaps = 0;
+    double fastest = 0.0;
+    for (int f = 0; f < s.default_frames; ++f) {
+      const auto st = sim::walker_states(motions, f / s.fps);
+      for (std::size_t a = 0; a < st.size(); ++a) {
+        fastest = std::max(fastest, st[a].velocity.norm() / s.walkers[a].speed);
+        for (std::size_t b = a + 1; b < st.size(); ++b) {
+          overlaps += (st[a].position - st[b].position).norm() < st[a].radius + st[b].radius;
+        }
+      }
+    }
+    EXPECT_EQ(overlaps, 0) << name;
+    EXPECT_LE(fastest, 1.02) << name;
+  }
+  expect_error([] { (void)sim::make_scene("moon", 1); }, {"moon", "env_a"});
+}
+
+TEST(Simulator, WalkerPausesAndKeepsItsCruiseSpeed) {
+  sim::WalkerSpec spec;
+  spec.waypoints = {{{0, 0}, 2.0}, {{6, 0}, 0.0}, {{6, 3}, 0.0}, {{0, 3}, 0.0}};
+  spec.speed = 1.2;
+  const sim::WalkerMotion m(spec);
+  // Paused for the first 2 s at the rounded corner of waypoint 0.
+  EXPECT_LT(m.velocity(1.0).norm(), 1e-6);
+  EXPECT_NEAR((m.position(0.5) - m.position(1.5)).norm(), 0.0, 1e-9);
+  // Then it accelerates at 1 m/s^2 and cruises.
+  EXPECT_NEAR(m.velocity(2.5).norm(), 0.5, 0.01);
+  EXPECT_NEAR(m.velocity(5.0).norm(), 1.2, 0.01);
+  // Positions are continuous (no jumps) over two loops.
+  for (double t = 0; t < 40; t += 0.01) {
+    EXPECT_LT((m.position(t + 0.01) - m.position(t)).norm(), 1.2 * 0.01 + 1e-3) << t;
+  }
+}
+
+// --------------------------------------------------------------------------- evaluation ------
+
+TEST(Evaluation, MinCostAssignmentBeatsGreedy) {
+  // Greedy takes (0,0) = 1 and then (1,1) = 10; the optimum is (0,1) + (1,0) = 3.1.
+  const auto a = eval::min_cost_assignment({1.0, 2.0, 1.1, 10.0}, 2, 2, 100.0);
+  EXPECT_EQ(a, (std::vector<int>{1, 0}));
+  // Forbidden pairs stay unassigned; more rows than columns works too.
+  const auto b = eval::min_cost_assignment({500.0, 0.3, 0.2}, 3, 1, 100.0);
+  EXPECT_EQ(b, (std::vector<int>{-1, -1, 0}));
+}
+
+TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
+  TempDir seq, res;
+  // Camera at the origin looking along +x (optical z = world x, x = -y, y = -z).
+  write_file(seq / "camera.txt", "world_z_up 1\ndepth_factor 1000\n");
+  const std::string q = " -0.5 0.5 -0.5 0.5\n";
+  write_file(seq / "groundtruth.txt", "1.0 0 0 1" + q + "2.0 0 0 1" + q + "3.0 0 0 1" + q);
+  write_file(seq / "depth.txt",
+             "1.000000 depth/1.png\n2.000000 depth/2.png\n3.000000 depth/3.png\n");
+  // id 1 counted; id 2 moving but hardly visible; id 3 standing still; id 4 too far (6 m).
+  write_file(seq / "obstacles.txt",
+             "# timestamp id x y z vx vy vz sx sy sz visible\n"
+             "1.000000 1 3.0 0.0 0.85 1 0 0 0.5 0.5 1.7 1.0\n"
+             "1.000000 2 2.0 -2.0 0.85 0 1 0 0.5 0.5 1.7 0.3\n"
+             "1.000000 3 4.0 1.0 0.85 0 0 0 0.5 0.5 1.7 1.0\n"
+             "1.000000 4 6.0 0.0 0.85 1 0 0 0.5 0.5 1.7 1.0\n"
+             "2.000000 1 3.1 0.0 0.85 1 0 0 0.5 0.5 1.7 1.0\n"
+             "3.000000 1 3.2 0.0 0.85 1 0 0 0.5 0.5 1.7 0.9\n");
+  write_file(seq / "static_world.txt", "floor 0\nbox 6.0 -3 0 6.2 3 2.5\n");
+  write_file(res / "tracks.csv",
+             "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n"
+             "1.000000,10,3.1,0,0.85,0.9,0,0,0.5,0.5,1.7,1,2\n"      // matches 1: 0.1 m, 0.1 m/s
+             "1.000000,11,4.2,1.3,0.85,0.3,0,0,0.5,0.5,1.7,1,-1\n"   // near still person: ok
+             "1.000000,12,0.0,5.0,0.85,1,0,0,0.5,0.5,1.7,1,0\n"      // nowhere near: false pos.
+             "1.000000,13,3.0,0.0,0.85,0,0,0,0.5,0.5,1.7,0,-1\n"     // static label: ignored
+             "2.000000,14,3.1,0.3,0.85,1,0.1,0,0.5,0.5,1.7,1,2\n");  // matches 1: ID switch
+  // Frame 3 has no tracks: a miss.
+  write_file(res / "predictions.csv",
+             "stamp,id,path,probability,k,t,x,y,z\n"
+             "1.000000,10,2,0.6,0,0.0,3.1,0,0.85\n"
+             "1.000000,10,2,0.6,1,0.5,3.6,0,0.85\n"
+             "1.000000,10,2,0.6,2,1.0,4.1,0,0.85\n"     // free: 1.9 m from the wall
+             "1.000000,11,-1,0.0,0,0.0,4.2,1.3,0.85\n"  // no free path
+             "2.000000,14,2,0.5,0,0.0,3.1,0.3,0.85\n"
+             "2.000000,14,2,0.5,1,2.0,5.9,0.3,0.85\n");  // ends 0.1 m before the wall: collides
+  write_file(res / "predictions_linear.csv",
+             "stamp,id,path,probability,k,t,x,y,z\n"
+             "1.000000,10,0,1,0,0.0,3.1,0,0.85\n"
+             "1.000000,10,0,1,1,1.0,5.5,0,0.85\n"  // 0.5 m from the wall, radius 0.25: free
+             "2.000000,14,0,1,0,0.0,3.1,0.3,0.85\n"
+             "2.000000,14,0,1,1,1.0,7.0,0.3,0.85\n");  // through the wall
+  const eval::EvalResult r = eval::evaluate(seq.str(), res.str());
+  EXPECT_EQ(r.frames, 3u);
+  EXPECT_EQ(r.gt_count, 3u);
+  EXPECT_EQ(r.matched, 2u);
+  EXPECT_NEAR(r.position_error, (0.1 + 0.3) / 2, 1e-9);
+  EXPECT_NEAR(r.velocity_error, 0.1, 1e-9);
+  EXPECT_NEAR(r.recall, 2.0 / 3.0, 1e-12);
+  EXPECT_EQ(r.dynamic_track_rows, 4u);
+  EXPECT_NEAR(r.precision, 3.0 / 4.0, 1e-12);
+  EXPECT_EQ(r.false_negatives, 1u);
+  EXPECT_EQ(r.false_positives, 1u);
+  EXPECT_EQ(r.id_switches, 1u);
+  EXPECT_NEAR(r.mota, 0.0, 1e-12);
+  ASSERT_TRUE(r.markov.available);
+  EXPECT_EQ(r.markov.predictions, 3u);
+  EXPECT_EQ(r.markov.colliding, 1u);
+  EXPECT_EQ(r.markov.no_path, 1u);
+  EXPECT_NEAR(r.markov.failure_ratio, 2.0 / 3.0, 1e-12);
+  ASSERT_TRUE(r.linear.available);
+  EXPECT_NEAR(r.linear.failure_ratio, 0.5, 1e-12);
+
+  eval::write_metrics_json(res / "metrics.json", r, seq.str(), res.str());
+  const std::string json = slurp(res / "metrics.json");
+  EXPECT_NE(json.find("\"recall\": 0.666667"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"id_switches\": 1"), std::string::npos);
+  EXPECT_NE(json.find("\"linear_failure_ratio\": 0.5"), std::string::npos);
+  EXPECT_NE(eval::format_table(r).find("MOTA"), std::string::npos);
+
+  // Malformed result rows are reported with file and line.
+  write_file(res / "tracks.csv", "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n1.0,1,2\n");
+  expect_error([&] { (void)eval::evaluate(seq.str(), res.str()); }, {"tracks.csv:2"});
+}
+
+TEST(TopView, WritesAReadablePicture) {
+  TempDir dir;
+  TopViewScene s;
+  s.title = "test";
+  s.static_world.boxes.push_back(StaticBox{{0, 0, 0}, {1, 4, 2}});
+  s.obstacles.push_back(TopViewObstacle{{3, 2}, {0.5, 0.5}, {1, 0}, true, "1"});
+  s.ground_truth_paths.push_back(TopViewPath{{{2, 0}, {3, 2}}, 1});
+  s.camera_trajectory = {{-2, 0}, {-1, 0}};
+  render_top_view(s, dir / "p.png", 400);
+  cairo_surface_t* img = cairo_image_surface_create_from_png((dir / "p.png").c_str());
+  ASSERT_EQ(cairo_surface_status(img), CAIRO_STATUS_SUCCESS);
+  EXPECT_GT(cairo_image_surface_get_width(img), 400);
+  EXPECT_GT(cairo_image_surface_get_height(img), 300);
+  cairo_surface_destroy(img);
+}

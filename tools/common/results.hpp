@@ -1,0 +1,41 @@
+// Readers of the replay tool's outputs (DATA_FORMAT.md): tracks.csv and predictions.csv.
+// Columns are found by their header names, so extra columns (anywhere) are ignored.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace dynamap::tools {
+
+/// One row of tracks.csv: stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path
+struct TrackRow {
+  double stamp = 0.0;
+  std::string stamp_text;
+  int id = 0;
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();
+  bool dynamic = false;
+  int path = -1;
+};
+
+/// One row of predictions.csv: stamp,id,path,probability,k,t,x,y,z
+struct PredictionRow {
+  double stamp = 0.0;
+  std::string stamp_text;
+  int id = 0;
+  int path = -1;
+  double probability = 0.0;
+  int k = 0;
+  double t = 0.0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+};
+
+/// Throws ToolError ("file:line: ...") on a missing file, a header without a required column, or
+/// a malformed row.
+std::vector<TrackRow> read_tracks_csv(const std::string& path);
+std::vector<PredictionRow> read_predictions_csv(const std::string& path);
+
+}  // namespace dynamap::tools

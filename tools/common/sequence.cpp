@@ -1,0 +1,167 @@
+#include "common/sequence.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+
+#include "common/text_io.hpp"
+
+namespace dynamap::tools {
+
+CameraModel read_camera_file(const std::string& path, bool* present,
+                             std::vector<std::string>* warnings) {
+  CameraModel cam;
+  if (present != nullptr) *present = file_exists(path);
+  if (!file_exists(path)) return cam;
+  const auto lines = read_lines(path);
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const TextLocation at{path, i + 1};
+    const std::string body = strip_comment(lines[i]);
+    if (body.empty()) continue;
+    const auto f = split_ws(body);
+    if (f.size() < 2) fail_at(at, "expected 'key value', got '" + lines[i] + "'");
+    const std::string& key = f[0];
+    if (key == "fx") {
+      cam.fx = parse_double(f[1], at, "fx");
+    } else if (key == "fy") {
+      cam.fy = parse_double(f[1], at, "fy");
+    } else if (key == "cx") {
+      cam.cx = parse_double(f[1], at, "cx");
+    } else if (key == "cy") {
+      cam.cy = parse_double(f[1], at, "cy");
+    } else if (key == "width") {
+      cam.width = static_cast<int>(parse_int(f[1], at, "width"));
+    } else if (key == "height") {
+      cam.height = static_cast<int>(parse_int(f[1], at, "height"));
+    } else if (key == "depth_factor") {
+      cam.depth_factor = parse_double(f[1], at, "depth_factor");
+    } else if (key == "world_z_up") {
+      const long long v = parse_int(f[1], at, "world_z_up");
+      if (v != 0 && v != 1) fail_at(at, "world_z_up must be 0 or 1");
+      cam.world_z_up = static_cast<int>(v);
+    } else if (warnings != nullptr) {
+      warnings->push_back(at.str() + ": unknown key '" + key + "' ignored");
+    }
+  }
+  const TextLocation whole{path, 0};
+  if (cam.fx <= 0 || cam.fy <= 0) fail_at(whole, "fx and fy must be positive");
+  if (cam.width <= 0 || cam.height <= 0 || cam.width > 8192 || cam.height > 8192) {
+    fail_at(whole, "width/height out of range");
+  }
+  if (cam.depth_factor <= 0) fail_at(whole, "depth_factor must be positive");
+  return cam;
+}
+
+void write_camera_file(const std::string& path, const CameraModel& c) {
+  std::ofstream out(path);
+  if (!out) throw ToolError(path + ": cannot create file");
+  out << std::setprecision(10);
+  out << "fx " << c.fx << "\nfy " << c.fy << "\ncx " << c.cx << "\ncy " << c.cy << "\nwidth "
+      << c.width << "\nheight " << c.height << "\ndepth_factor " << c.depth_factor
+      << "     # depth units per metre\nworld_z_up " << c.world_z_up << "\n";
+  if (!out) throw ToolError(path + ": write error");
+}
+
+std::vector<StampedPose> read_groundtruth(const std::string& path) {
+  const auto lines = read_lines(path);
+  std::vector<StampedPose> poses;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const TextLocation at{path, i + 1};
+    const std::string body = strip_comment(lines[i]);
+    if (body.empty()) continue;
+    const auto f = split_ws(body);
+    if (f.size() < 8) {
+      fail_at(at, "expected 'timestamp tx ty tz qx qy qz qw', got " + std::to_string(f.size()) +
+                      " fields");
+    }
+    StampedPose p;
+    p.stamp = parse_double(f[0], at, "timestamp");
+    p.pose.translation = {parse_double(f[1], at, "tx"), parse_double(f[2], at, "ty"),
+                          parse_double(f[3], at, "tz")};
+    const double qx = parse_double(f[4], at, "qx"), qy = parse_double(f[5], at, "qy"),
+                 qz = parse_double(f[6], at, "qz"), qw = parse_double(f[7], at, "qw");
+    Eigen::Quaterniond q(qw, qx, qy, qz);
+    if (q.norm() < 0.5) fail_at(at, "quaternion is far from unit length");
+    q.normalize();
+    p.pose.rotation = q;
+    poses.push_back(p);
+  }
+  std::stable_sort(poses.begin(), poses.end(),
+                   [](const StampedPose& a, const StampedPose& b) { return a.stamp < b.stamp; });
+  return poses;
+}
+
+bool interpolate_pose(const std::vector<StampedPose>& poses, double t, double max_gap, PoseD* out) {
+  // First pose with stamp >= t.
+  const auto hi = std::lower_bound(poses.begin(), poses.end(), t,
+                                   [](const StampedPose& p, double s) { return p.stamp < s; });
+  if (hi != poses.end() && hi->stamp == t) {
+    *out = hi->pose;
+    return true;
+  }
+  if (hi == poses.end() || hi == poses.begin()) return false;
+  const auto lo = hi - 1;
+  if (t - lo->stamp > max_gap || hi->stamp - t > max_gap) return false;
+  const double a = (t - lo->stamp) / (hi->stamp - lo->stamp);
+  out->translation = (1.0 - a) * lo->pose.translation + a * hi->pose.translation;
+  out->rotation = lo->pose.rotation.slerp(a, hi->pose.rotation).normalized();
+  return true;
+}
+
+Sequence read_sequence(const std::string& dir, const SequenceReadOptions& options) {
+  Sequence seq;
+  seq.dir = dir;
+  seq.camera = read_camera_file(join_path(dir, "camera.txt"), &seq.has_camera_file, &seq.warnings);
+  const std::string depth_list = join_path(dir, "depth.txt");
+  const std::string gt_path = join_path(dir, "groundtruth.txt");
+  if (!file_exists(depth_list))
+    throw ToolError(depth_list + ": missing (not a sequence directory?)");
+  if (!file_exists(gt_path)) throw ToolError(gt_path + ": missing (camera poses are required)");
+  seq.poses = read_groundtruth(gt_path);
+
+  if (seq.camera.world_z_up == 0 && options.align_gravity && !seq.poses.empty()) {
+    const Eigen::Vector3d down = seq.poses.front().pose.rotation * Eigen::Vector3d::UnitY();
+    seq.world_alignment = Eigen::Quaterniond::FromTwoVectors(down, -Eigen::Vector3d::UnitZ());
+    seq.gravity_aligned = true;
+    for (auto& p : seq.poses) {
+      p.pose.translation = seq.world_alignment * p.pose.translation;
+      p.pose.rotation = (seq.world_alignment * p.pose.rotation).normalized();
+    }
+  }
+
+  const auto lines = read_lines(depth_list);
+  double previous = -1e300;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const TextLocation at{depth_list, i + 1};
+    const std::string body = strip_comment(lines[i]);
+    if (body.empty()) continue;
+    const auto f = split_ws(body);
+    if (f.size() < 2) fail_at(at, "expected 'timestamp filename', got '" + lines[i] + "'");
+    SequenceFrame frame;
+    frame.stamp = parse_double(f[0], at, "timestamp");
+    if (frame.stamp <= previous) fail_at(at, "time stamps must increase");
+    previous = frame.stamp;
+    frame.stamp_text = f[0];
+    frame.depth_path = join_path(dir, f[1]);
+    ++seq.images_listed;
+    if (!interpolate_pose(seq.poses, frame.stamp, options.max_pose_gap, &frame.pose)) {
+      ++seq.images_without_pose;
+      continue;
+    }
+    seq.frames.push_back(std::move(frame));
+  }
+  return seq;
+}
+
+Image16 load_depth(const Sequence& seq, const SequenceFrame& frame) {
+  Image16 img = read_png16(frame.depth_path);
+  if (img.width != seq.camera.width || img.height != seq.camera.height) {
+    throw ToolError(frame.depth_path + ": image is " + std::to_string(img.width) + "x" +
+                    std::to_string(img.height) + " but camera.txt says " +
+                    std::to_string(seq.camera.width) + "x" + std::to_string(seq.camera.height));
+  }
+  return img;
+}
+
+}  // namespace dynamap::tools

@@ -1,0 +1,92 @@
+// Reader of a sequence directory in the TUM RGB-D layout of DATA_FORMAT.md: depth.txt,
+// groundtruth.txt (poses interpolated to the depth time stamps), optional camera.txt.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "common/png_io.hpp"
+
+namespace dynamap::tools {
+
+/// camera.txt contents; defaults are the TUM fr3 values (used for any key that is absent).
+struct CameraModel {
+  double fx = 535.4, fy = 539.2, cx = 320.1, cy = 247.6;
+  int width = 640, height = 480;
+  double depth_factor = 5000.0;  ///< depth units per metre
+  int world_z_up = 0;            ///< TUM recordings: 0 (unknown); simulated data writes 1
+};
+
+/// Camera pose T_world_camera (optical frame), double precision.
+struct PoseD {
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+};
+
+/// One timestamped pose from groundtruth.txt.
+struct StampedPose {
+  double stamp = 0.0;
+  PoseD pose;
+};
+
+/// One depth image that has a pose.
+struct SequenceFrame {
+  double stamp = 0.0;
+  std::string stamp_text;  ///< exactly as in depth.txt, for output with the same precision
+  std::string depth_path;  ///< SEQ joined with the file name of depth.txt
+  PoseD pose;              ///< interpolated, in the (possibly gravity-aligned) world frame
+};
+
+struct SequenceReadOptions {
+  /// Largest gap (s) between an image and the nearest pose on each side (DATA_FORMAT: 0.05).
+  double max_pose_gap = 0.05;
+  /// With world_z_up 0: rotate the world so that the first camera's "down" (+y of the optical
+  /// frame) becomes -z. See Sequence::gravity_aligned.
+  bool align_gravity = true;
+};
+
+/// A read sequence: camera model and the frames that have a pose, in time order.
+struct Sequence {
+  std::string dir;
+  CameraModel camera;
+  bool has_camera_file = false;
+  std::vector<SequenceFrame> frames;
+  std::size_t images_listed = 0;        ///< lines in depth.txt
+  std::size_t images_without_pose = 0;  ///< skipped: no pose within max_pose_gap on both sides
+  std::vector<StampedPose> poses;       ///< groundtruth.txt, sorted, in the output world frame
+  /// When camera.txt says world_z_up 0 and align_gravity is on, every pose (translations and
+  /// rotations) was pre-multiplied by this rotation: the smallest rotation taking the first
+  /// pose's camera +y axis (image down) to world -z. It leaves the origin in place. Identity
+  /// otherwise.
+  Eigen::Quaterniond world_alignment = Eigen::Quaterniond::Identity();
+  bool gravity_aligned = false;
+  std::vector<std::string> warnings;  ///< e.g. unknown camera.txt keys (ignored)
+};
+
+/// Reads camera.txt; a missing file gives the defaults. Throws ToolError naming file:line.
+CameraModel read_camera_file(const std::string& path, bool* present,
+                             std::vector<std::string>* warnings);
+
+/// Writes camera.txt with every key.
+void write_camera_file(const std::string& path, const CameraModel& camera);
+
+/// Reads groundtruth.txt (timestamp tx ty tz qx qy qz qw [extra columns ignored]); sorted by
+/// time. Quaternions are normalised; a (near-)zero or non-finite one is an error.
+std::vector<StampedPose> read_groundtruth(const std::string& path);
+
+/// Pose at time t: linear translation + slerp between the two nearest poses; false when there is
+/// no pose within max_gap on both sides (an exact time match needs only that one pose).
+bool interpolate_pose(const std::vector<StampedPose>& poses, double t, double max_gap, PoseD* out);
+
+/// Reads SEQ/depth.txt, SEQ/groundtruth.txt and SEQ/camera.txt (optional). Throws ToolError
+/// with "file:line: what" for malformed lines and missing files.
+Sequence read_sequence(const std::string& dir, const SequenceReadOptions& options = {});
+
+/// Loads the depth image of a frame, checking its size against the camera model.
+Image16 load_depth(const Sequence& seq, const SequenceFrame& frame);
+
+}  // namespace dynamap::tools

@@ -1,0 +1,464 @@
+#include "common/topview.hpp"
+
+#include <cairo.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+
+#include "common/text_io.hpp"
+
+namespace dynamap::tools {
+namespace {
+
+struct Rgb {
+  double r, g, b;
+};
+// One colour per kind of thing, used the same way in the legend.
+constexpr Rgb kMapCell{0.25, 0.25, 0.28};
+constexpr Rgb kStaticFill{0.80, 0.80, 0.84};
+constexpr Rgb kStaticEdge{0.45, 0.45, 0.50};
+constexpr Rgb kCamera{0.10, 0.35, 0.90};
+constexpr Rgb kGroundTruth{0.05, 0.60, 0.20};
+constexpr Rgb kTracked{0.95, 0.50, 0.00};
+constexpr Rgb kPredicted{0.75, 0.00, 0.75};
+constexpr Rgb kLinear{0.45, 0.30, 0.10};
+constexpr Rgb kDynamic{0.85, 0.08, 0.08};
+constexpr Rgb kStaticTrack{0.15, 0.45, 0.85};
+constexpr Rgb kText{0.10, 0.10, 0.10};
+constexpr Rgb kGrid{0.90, 0.90, 0.90};
+
+void set(cairo_t* cr, const Rgb& c, double alpha = 1.0) {
+  cairo_set_source_rgba(cr, c.r, c.g, c.b, alpha);
+}
+
+// World (x right, y up) to picture pixels (y down).
+struct Frame {
+  Eigen::Vector2d min, max;
+  double scale = 50.0;  // px per metre
+  double left = 0, top = 0;
+  double px(double x) const { return left + (x - min.x()) * scale; }
+  double py(double y) const { return top + (max.y() - y) * scale; }
+};
+
+void grow(Eigen::Vector2d* lo, Eigen::Vector2d* hi, const Eigen::Vector2d& p) {
+  *lo = lo->cwiseMin(p);
+  *hi = hi->cwiseMax(p);
+}
+
+double nice_step(double span_m) {
+  for (double s : {0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0}) {
+    if (span_m / s <= 12.0) return s;
+  }
+  return 100.0;
+}
+
+void text(cairo_t* cr, double x, double y, const std::string& s, double size, bool bold = false,
+          double align = 0.0) {
+  cairo_select_font_face(cr, "DejaVu Sans", CAIRO_FONT_SLANT_NORMAL,
+                         bold ? CAIRO_FONT_WEIGHT_BOLD : CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr, size);
+  cairo_text_extents_t e;
+  cairo_text_extents(cr, s.c_str(), &e);
+  cairo_move_to(cr, x - align * e.x_advance, y);
+  cairo_show_text(cr, s.c_str());
+}
+
+void polyline(cairo_t* cr, const Frame& f, const std::vector<Eigen::Vector2d>& pts) {
+  if (pts.size() < 2) return;
+  cairo_move_to(cr, f.px(pts[0].x()), f.py(pts[0].y()));
+  for (std::size_t i = 1; i < pts.size(); ++i)
+    cairo_line_to(cr, f.px(pts[i].x()), f.py(pts[i].y()));
+  cairo_stroke(cr);
+}
+
+void arrow(cairo_t* cr, double x0, double y0, double x1, double y1, double head) {
+  cairo_move_to(cr, x0, y0);
+  cairo_line_to(cr, x1, y1);
+  cairo_stroke(cr);
+  const double a = std::atan2(y1 - y0, x1 - x0);
+  if (std::hypot(x1 - x0, y1 - y0) < 1.0) return;
+  cairo_move_to(cr, x1, y1);
+  cairo_line_to(cr, x1 - head * std::cos(a - 0.45), y1 - head * std::sin(a - 0.45));
+  cairo_line_to(cr, x1 - head * std::cos(a + 0.45), y1 - head * std::sin(a + 0.45));
+  cairo_close_path(cr);
+  cairo_fill(cr);
+}
+
+enum class Swatch { kFill, kLine, kDashed, kBox, kDots };
+
+void legend_entry(cairo_t* cr, double x, double y, const Rgb& c, Swatch kind,
+                  const std::string& label) {
+  set(cr, c);
+  cairo_set_line_width(cr, 2.5);
+  switch (kind) {
+    case Swatch::kFill:
+      cairo_rectangle(cr, x, y - 10, 22, 12);
+      cairo_fill(cr);
+      break;
+    case Swatch::kLine:
+      cairo_move_to(cr, x, y - 4);
+      cairo_line_to(cr, x + 22, y - 4);
+      cairo_stroke(cr);
+      break;
+    case Swatch::kDashed: {
+      const double dash[] = {6.0, 4.0};
+      cairo_set_dash(cr, dash, 2, 0);
+      cairo_move_to(cr, x, y - 4);
+      cairo_line_to(cr, x + 22, y - 4);
+      cairo_stroke(cr);
+      cairo_set_dash(cr, nullptr, 0, 0);
+      break;
+    }
+    case Swatch::kBox:
+      set(cr, c, 0.25);
+      cairo_rectangle(cr, x + 2, y - 11, 18, 14);
+      cairo_fill_preserve(cr);
+      set(cr, c);
+      cairo_stroke(cr);
+      break;
+    case Swatch::kDots:
+      cairo_move_to(cr, x, y - 4);
+      cairo_line_to(cr, x + 22, y - 4);
+      cairo_stroke(cr);
+      for (int i = 0; i < 3; ++i) {
+        cairo_arc(cr, x + 2 + 9 * i, y - 4, 2.5, 0, 2 * M_PI);
+        cairo_fill(cr);
+      }
+      break;
+  }
+  set(cr, kText);
+  text(cr, x + 30, y, label, 13);
+}
+
+}  // namespace
+
+void render_top_view(const TopViewScene& s, const std::string& png_path, int plot_px) {
+  // --- bounds --------------------------------------------------------------------------------
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  if (s.fixed_bounds) {
+    lo = s.bounds_min;
+    hi = s.bounds_max;
+  } else {
+    for (const auto& c : s.occupied_cells) grow(&lo, &hi, c.head<2>());
+    for (const auto& b : s.static_world.boxes) {
+      grow(&lo, &hi, b.min.head<2>());
+      grow(&lo, &hi, b.max.head<2>());
+    }
+    for (const auto& c : s.static_world.cylinders) {
+      grow(&lo, &hi, c.center - Eigen::Vector2d::Constant(c.radius));
+      grow(&lo, &hi, c.center + Eigen::Vector2d::Constant(c.radius));
+    }
+    for (const auto* set_of : {&s.obstacles, &s.ground_truth_boxes}) {
+      for (const auto& o : *set_of) {
+        grow(&lo, &hi, o.center - 0.5 * o.size);
+        grow(&lo, &hi, o.center + 0.5 * o.size);
+      }
+    }
+    for (const auto* paths :
+         {&s.tracked_paths, &s.ground_truth_paths, &s.predicted_paths, &s.linear_paths}) {
+      for (const auto& p : *paths) {
+        for (const auto& q : p.points) grow(&lo, &hi, q);
+      }
+    }
+    for (const auto& q : s.camera_trajectory) grow(&lo, &hi, q);
+    if (s.show_camera) grow(&lo, &hi, s.camera_position);
+    if (!std::isfinite(lo.x())) {
+      lo = Eigen::Vector2d(-5, -5);
+      hi = Eigen::Vector2d(5, 5);
+    }
+    lo -= Eigen::Vector2d::Constant(0.8);
+    hi += Eigen::Vector2d::Constant(0.8);
+  }
+  const Eigen::Vector2d span = (hi - lo).cwiseMax(Eigen::Vector2d::Constant(1.0));
+  hi = lo + span;
+
+  Frame f;
+  f.min = lo;
+  f.max = hi;
+  f.scale = plot_px / std::max(span.x(), span.y());
+  const int plot_w = static_cast<int>(std::ceil(span.x() * f.scale));
+  const int plot_h = static_cast<int>(std::ceil(span.y() * f.scale));
+  const int margin_left = 70, margin_top = s.subtitle.empty() ? 56 : 78, margin_bottom = 60;
+  const int legend_w = 270;
+  f.left = margin_left;
+  f.top = margin_top;
+  const int width = margin_left + plot_w + 20 + legend_w;
+  const int height = std::max(margin_top + plot_h + margin_bottom, margin_top + 420);
+
+  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
+      cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width, height), cairo_surface_destroy);
+  std::unique_ptr<cairo_t, decltype(&cairo_destroy)> context(cairo_create(surface.get()),
+                                                             cairo_destroy);
+  cairo_t* cr = context.get();
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_paint(cr);
+
+  // --- title ---------------------------------------------------------------------------------
+  set(cr, kText);
+  text(cr, margin_left, 32, s.title, 20, true);
+  if (!s.subtitle.empty()) text(cr, margin_left, 56, s.subtitle, 14);
+
+  // --- plot area, grid and axes ---------------------------------------------------------------
+  cairo_save(cr);
+  cairo_rectangle(cr, f.left, f.top, plot_w, plot_h);
+  cairo_clip(cr);
+  cairo_set_source_rgb(cr, 0.985, 0.985, 0.985);
+  cairo_paint(cr);
+  const double step = nice_step(std::max(span.x(), span.y()));
+  set(cr, kGrid);
+  cairo_set_line_width(cr, 1.0);
+  for (double x = std::ceil(lo.x() / step) * step; x <= hi.x(); x += step) {
+    cairo_move_to(cr, f.px(x), f.top);
+    cairo_line_to(cr, f.px(x), f.top + plot_h);
+  }
+  for (double y = std::ceil(lo.y() / step) * step; y <= hi.y(); y += step) {
+    cairo_move_to(cr, f.left, f.py(y));
+    cairo_line_to(cr, f.left + plot_w, f.py(y));
+  }
+  cairo_stroke(cr);
+
+  // --- static world (truth), then map cells ---------------------------------------------------
+  cairo_set_line_width(cr, 1.2);
+  for (const auto& b : s.static_world.boxes) {
+    if (b.max.z() <= s.static_world.floor_z + 0.05) continue;  // floor slabs
+    cairo_rectangle(cr, f.px(b.min.x()), f.py(b.max.y()), (b.max.x() - b.min.x()) * f.scale,
+                    (b.max.y() - b.min.y()) * f.scale);
+    set(cr, kStaticFill);
+    cairo_fill_preserve(cr);
+    set(cr, kStaticEdge);
+    cairo_stroke(cr);
+  }
+  for (const auto& c : s.static_world.cylinders) {
+    cairo_new_sub_path(cr);
+    cairo_arc(cr, f.px(c.center.x()), f.py(c.center.y()), c.radius * f.scale, 0, 2 * M_PI);
+    set(cr, kStaticFill);
+    cairo_fill_preserve(cr);
+    set(cr, kStaticEdge);
+    cairo_stroke(cr);
+  }
+  set(cr, kMapCell, 0.85);
+  const double cell_px = std::max(1.0, s.cell_size * f.scale);
+  for (const auto& c : s.occupied_cells) {
+    cairo_rectangle(cr, f.px(c.x()) - 0.5 * cell_px, f.py(c.y()) - 0.5 * cell_px, cell_px, cell_px);
+  }
+  cairo_fill(cr);
+
+  // --- camera: trajectory and field of view ---------------------------------------------------
+  if (s.show_camera) {
+    const Eigen::Vector2d c = s.camera_position;
+    const double r = s.camera_range;
+    set(cr, kCamera, 0.10);
+    cairo_move_to(cr, f.px(c.x()), f.py(c.y()));
+    const int n = 24;
+    for (int i = 0; i <= n; ++i) {
+      const double a = s.camera_yaw - 0.5 * s.camera_hfov + s.camera_hfov * i / n;
+      cairo_line_to(cr, f.px(c.x() + r * std::cos(a)), f.py(c.y() + r * std::sin(a)));
+    }
+    cairo_close_path(cr);
+    cairo_fill_preserve(cr);
+    set(cr, kCamera, 0.35);
+    cairo_set_line_width(cr, 1.0);
+    cairo_stroke(cr);
+  }
+  if (!s.camera_trajectory.empty()) {
+    set(cr, kCamera);
+    cairo_set_line_width(cr, 2.5);
+    polyline(cr, f, s.camera_trajectory);
+    const auto& p0 = s.camera_trajectory.front();
+    cairo_arc(cr, f.px(p0.x()), f.py(p0.y()), 4, 0, 2 * M_PI);
+    cairo_fill(cr);
+  }
+  if (s.show_camera) {
+    set(cr, kCamera);
+    const double x = f.px(s.camera_position.x()), y = f.py(s.camera_position.y());
+    cairo_arc(cr, x, y, 6, 0, 2 * M_PI);
+    cairo_fill(cr);
+    cairo_set_line_width(cr, 2.5);
+    arrow(cr, x, y, x + 26 * std::cos(s.camera_yaw), y - 26 * std::sin(s.camera_yaw), 9);
+  }
+
+  // --- paths -----------------------------------------------------------------------------------
+  cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  {
+    const double dash[] = {8.0, 5.0};
+    cairo_set_dash(cr, dash, 2, 0);
+    set(cr, kGroundTruth);
+    cairo_set_line_width(cr, 2.0);
+    for (const auto& p : s.ground_truth_paths) polyline(cr, f, p.points);
+    cairo_set_dash(cr, nullptr, 0, 0);
+  }
+  set(cr, kTracked);
+  cairo_set_line_width(cr, 2.5);
+  for (const auto& p : s.tracked_paths) polyline(cr, f, p.points);
+  for (const auto* paths : {&s.linear_paths, &s.predicted_paths}) {
+    set(cr, paths == &s.predicted_paths ? kPredicted : kLinear);
+    cairo_set_line_width(cr, 2.0);
+    for (const auto& p : *paths) {
+      polyline(cr, f, p.points);
+      for (const auto& q : p.points) {
+        cairo_arc(cr, f.px(q.x()), f.py(q.y()), 2.2, 0, 2 * M_PI);
+        cairo_fill(cr);
+      }
+    }
+  }
+  for (const auto& p : s.ground_truth_paths) {
+    if (p.points.empty()) continue;
+    set(cr, kGroundTruth);
+    cairo_arc(cr, f.px(p.points.front().x()), f.py(p.points.front().y()), 3.5, 0, 2 * M_PI);
+    cairo_fill(cr);
+  }
+
+  // --- boxes with velocity arrows and labels --------------------------------------------------
+  auto draw_box = [&](const TopViewObstacle& o, const Rgb& c, bool dashed) {
+    const double x0 = f.px(o.center.x() - 0.5 * o.size.x());
+    const double y0 = f.py(o.center.y() + 0.5 * o.size.y());
+    cairo_rectangle(cr, x0, y0, o.size.x() * f.scale, o.size.y() * f.scale);
+    if (dashed) {
+      const double dash[] = {4.0, 3.0};
+      cairo_set_dash(cr, dash, 2, 0);
+    } else {
+      set(cr, c, 0.22);
+      cairo_fill_preserve(cr);
+    }
+    set(cr, c);
+    cairo_set_line_width(cr, 2.0);
+    cairo_stroke(cr);
+    cairo_set_dash(cr, nullptr, 0, 0);
+    const double cx = f.px(o.center.x()), cy = f.py(o.center.y());
+    if (o.velocity.norm() > 0.05) {
+      cairo_set_line_width(cr, 2.5);
+      arrow(cr, cx, cy, f.px(o.center.x() + o.velocity.x()), f.py(o.center.y() + o.velocity.y()),
+            9);
+    }
+    if (!o.label.empty()) {
+      set(cr, kText);
+      text(cr, x0 + o.size.x() * f.scale + 4, y0 - 3, o.label, 12);
+    }
+  };
+  for (const auto& o : s.ground_truth_boxes) draw_box(o, kGroundTruth, true);
+  for (const auto& o : s.obstacles) draw_box(o, o.dynamic ? kDynamic : kStaticTrack, false);
+  cairo_restore(cr);
+
+  // --- frame, tick labels, axis names ----------------------------------------------------------
+  cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
+  cairo_set_line_width(cr, 1.0);
+  cairo_rectangle(cr, f.left + 0.5, f.top + 0.5, plot_w, plot_h);
+  cairo_stroke(cr);
+  set(cr, kText);
+  char buf[64];
+  for (double x = std::ceil(lo.x() / step) * step; x <= hi.x() + 1e-9; x += step) {
+    std::snprintf(buf, sizeof(buf), "%g", std::abs(x) < 1e-9 ? 0.0 : x);
+    text(cr, f.px(x), f.top + plot_h + 16, buf, 11, false, 0.5);
+  }
+  for (double y = std::ceil(lo.y() / step) * step; y <= hi.y() + 1e-9; y += step) {
+    std::snprintf(buf, sizeof(buf), "%g", std::abs(y) < 1e-9 ? 0.0 : y);
+    text(cr, f.left - 6, f.py(y) + 4, buf, 11, false, 1.0);
+  }
+  text(cr, f.left + 0.5 * plot_w, f.top + plot_h + 34, "x (m)", 13, false, 0.5);
+  cairo_save(cr);
+  cairo_translate(cr, 22, f.top + 0.5 * plot_h);
+  cairo_rotate(cr, -M_PI / 2);
+  text(cr, 0, 0, "y (m)", 13, false, 0.5);
+  cairo_restore(cr);
+
+  // --- scale bar (below the plot, left) -------------------------------------------------------
+  {
+    const double bar_m = step;
+    const double x0 = f.left, y0 = f.top + plot_h + 50;
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 3.0);
+    cairo_move_to(cr, x0, y0);
+    cairo_line_to(cr, x0 + bar_m * f.scale, y0);
+    cairo_stroke(cr);
+    cairo_set_line_width(cr, 1.5);
+    for (double xx : {x0, x0 + bar_m * f.scale}) {
+      cairo_move_to(cr, xx, y0 - 5);
+      cairo_line_to(cr, xx, y0 + 5);
+    }
+    cairo_stroke(cr);
+    std::snprintf(buf, sizeof(buf), "%g m  (grid %g m, top view, z up)", bar_m, step);
+    text(cr, x0 + bar_m * f.scale + 10, y0 + 4, buf, 12);
+  }
+
+  // --- legend (outside the plot so it never hides data) ---------------------------------------
+  {
+    const double x = f.left + plot_w + 24;
+    double y = f.top + 8;
+    set(cr, kText);
+    text(cr, x, y + 6, "Legend", 15, true);
+    y += 30;
+    auto entry = [&](bool present, const Rgb& c, Swatch k, const std::string& label) {
+      if (!present) return;
+      legend_entry(cr, x, y, c, k, label);
+      y += 24;
+    };
+    entry(!s.occupied_cells.empty(), kMapCell, Swatch::kFill, "occupied map cell");
+    entry(!s.static_world.boxes.empty() || !s.static_world.cylinders.empty(), kStaticEdge,
+          Swatch::kFill, "static world (true)");
+    entry(!s.camera_trajectory.empty(), kCamera, Swatch::kLine, "camera path (dot: start)");
+    entry(s.show_camera, kCamera, Swatch::kBox, "camera view (last frame)");
+    entry(!s.ground_truth_paths.empty(), kGroundTruth, Swatch::kDashed,
+          "true obstacle path (dot: start)");
+    entry(!s.ground_truth_boxes.empty(), kGroundTruth, Swatch::kDashed, "true obstacle box");
+    const bool any_dyn = std::any_of(s.obstacles.begin(), s.obstacles.end(),
+                                     [](const TopViewObstacle& o) { return o.dynamic; });
+    const bool any_static = std::any_of(s.obstacles.begin(), s.obstacles.end(),
+                                        [](const TopViewObstacle& o) { return !o.dynamic; });
+    entry(any_dyn, kDynamic, Swatch::kBox, "dynamic obstacle + velocity");
+    entry(any_static, kStaticTrack, Swatch::kBox, "obstacle labelled static");
+    entry(!s.tracked_paths.empty(), kTracked, Swatch::kLine, "tracked path (history)");
+    entry(!s.predicted_paths.empty(), kPredicted, Swatch::kDots, "predicted path (chosen)");
+    entry(!s.linear_paths.empty(), kLinear, Swatch::kDots, "linear prediction (baseline)");
+    set(cr, kText);
+    text(cr, x, y + 10, "Arrows: velocity, length = 1 s", 12);
+    text(cr, x, y + 26, "of travel.", 12);
+  }
+
+  cairo_surface_flush(surface.get());
+  if (cairo_surface_write_to_png(surface.get(), png_path.c_str()) != CAIRO_STATUS_SUCCESS) {
+    throw ToolError(png_path + ": cannot write picture");
+  }
+}
+
+void render_depth_preview(const Image16& depth, double depth_factor, double max_depth,
+                          const std::string& caption, const std::string& png_path) {
+  const int caption_h = 28;
+  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
+      cairo_image_surface_create(CAIRO_FORMAT_RGB24, depth.width, depth.height + caption_h),
+      cairo_surface_destroy);
+  cairo_surface_flush(surface.get());
+  unsigned char* data = cairo_image_surface_get_data(surface.get());
+  const int stride = cairo_image_surface_get_stride(surface.get());
+  for (int v = 0; v < depth.height; ++v) {
+    auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(v) * stride);
+    for (int u = 0; u < depth.width; ++u) {
+      const std::uint16_t d = depth.at(u, v);
+      if (d == 0) {
+        row[u] = 0x500000u;
+        continue;
+      }
+      const double m = d / depth_factor;
+      const auto g =
+          static_cast<std::uint32_t>(std::clamp(255.0 * (1.0 - m / max_depth), 20.0, 255.0));
+      row[u] = (g << 16) | (g << 8) | g;
+    }
+  }
+  cairo_surface_mark_dirty(surface.get());
+  std::unique_ptr<cairo_t, decltype(&cairo_destroy)> context(cairo_create(surface.get()),
+                                                             cairo_destroy);
+  cairo_t* cr = context.get();
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_rectangle(cr, 0, depth.height, depth.width, caption_h);
+  cairo_fill(cr);
+  set(cr, kText);
+  text(cr, 8, depth.height + 19, caption, 13);
+  if (cairo_surface_write_to_png(surface.get(), png_path.c_str()) != CAIRO_STATUS_SUCCESS) {
+    throw ToolError(png_path + ": cannot write picture");
+  }
+}
+
+}  // namespace dynamap::tools

@@ -1,0 +1,57 @@
+// dynamap-eval SEQ RESULT_DIR [--picture]
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include "common/text_io.hpp"
+#include "eval/metrics.hpp"
+
+using namespace dynamap::tools;
+
+int main(int argc, char** argv) {
+  try {
+    std::string seq, result;
+    bool picture = false;
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (a == "--picture") {
+        picture = true;
+      } else if (a == "-h" || a == "--help") {
+        std::printf(
+            "usage: dynamap-eval SEQ RESULT_DIR [--picture]\n"
+            "  Compares RESULT_DIR/tracks.csv and predictions.csv (and, when present,\n"
+            "  predictions_linear.csv) with the ground truth of the simulated sequence\n"
+            "  SEQ; prints a table and writes RESULT_DIR/metrics.json. --picture also\n"
+            "  writes RESULT_DIR/eval_topview.png. See docs/tools.md.\n");
+        return 0;
+      } else if (!a.empty() && a[0] == '-') {
+        throw ToolError("unknown option '" + a + "'");
+      } else if (seq.empty()) {
+        seq = a;
+      } else if (result.empty()) {
+        result = a;
+      } else {
+        throw ToolError("unexpected argument '" + a + "'");
+      }
+    }
+    if (seq.empty() || result.empty()) {
+      std::fprintf(stderr, "usage: dynamap-eval SEQ RESULT_DIR [--picture]\n");
+      return 2;
+    }
+    const eval::EvalResult r = eval::evaluate(seq, result);
+    std::printf("dynamap-eval: %s vs %s\n%s", seq.c_str(), result.c_str(),
+                eval::format_table(r).c_str());
+    const std::string json = join_path(result, "metrics.json");
+    eval::write_metrics_json(json, r, seq, result);
+    std::printf("wrote %s\n", json.c_str());
+    if (picture) {
+      const std::string png = join_path(result, "eval_topview.png");
+      eval::write_eval_picture(png, seq, result);
+      std::printf("wrote %s\n", png.c_str());
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dynamap-eval: error: %s\n", e.what());
+    return 1;
+  }
+}

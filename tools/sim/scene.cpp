@@ -1,0 +1,228 @@
+#include "sim/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dynamap::tools::sim {
+
+Eigen::Vector2d DensePath::at(double arc) const {
+  if (points.empty()) return Eigen::Vector2d::Zero();
+  if (arc <= 0.0) return points.front();
+  if (arc >= length()) return points.back();
+  const auto it = std::upper_bound(s.begin(), s.end(), arc);
+  const std::size_t i = static_cast<std::size_t>(it - s.begin());  // s[i-1] <= arc < s[i]
+  const double seg = s[i] - s[i - 1];
+  const double a = seg > 0 ? (arc - s[i - 1]) / seg : 0.0;
+  return (1.0 - a) * points[i - 1] + a * points[i];
+}
+
+namespace {
+
+void append(DensePath* path, const Eigen::Vector2d& p) {
+  if (path->points.empty()) {
+    path->points.push_back(p);
+    path->s.push_back(0.0);
+    return;
+  }
+  const double d = (p - path->points.back()).norm();
+  if (d < 1e-9) return;
+  path->points.push_back(p);
+  path->s.push_back(path->s.back() + d);
+}
+
+void append_line(DensePath* path, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / 0.05)));
+  for (int i = 0; i <= n; ++i) append(path, a + (b - a) * (static_cast<double>(i) / n));
+}
+
+}  // namespace
+
+DensePath smooth_path(const std::vector<Eigen::Vector2d>& w, bool closed, double cut,
+                      std::vector<double>* corner_arc) {
+  DensePath path;
+  const std::size_t n = w.size();
+  if (corner_arc != nullptr) corner_arc->assign(n, 0.0);
+  if (n == 0) return path;
+  if (n == 1) {
+    append(&path, w[0]);
+    return path;
+  }
+  // Corner i is replaced by a Bezier from a[i] (before) to b[i] (after) with control w[i].
+  std::vector<Eigen::Vector2d> a(n), b(n);
+  std::vector<bool> rounded(n, false);
+  for (std::size_t i = 0; i < n; ++i) {
+    a[i] = b[i] = w[i];
+    const bool has_neighbours = closed || (i > 0 && i + 1 < n);
+    if (!has_neighbours) continue;
+    const Eigen::Vector2d prev = w[(i + n - 1) % n], next = w[(i + 1) % n];
+    const double lp = (prev - w[i]).norm(), ln = (next - w[i]).norm();
+    if (lp < 1e-9 || ln < 1e-9) continue;
+    const double d = std::min({cut, 0.45 * lp, 0.45 * ln});
+    a[i] = w[i] + d * (prev - w[i]) / lp;
+    b[i] = w[i] + d * (next - w[i]) / ln;
+    rounded[i] = true;
+  }
+  const std::size_t corners = closed ? n + 1 : n;  // closed: end where we started
+  for (std::size_t k = 0; k < corners; ++k) {
+    const std::size_t i = k % n;
+    if (k > 0) append_line(&path, b[(k - 1) % n], a[i]);
+    if (rounded[i]) {
+      // A closed path starts and ends at the middle of corner 0, so it joins up exactly.
+      const int steps = 24;
+      const int j_begin = (closed && k == 0) ? steps / 2 : 0;
+      const int j_end = (closed && k == n) ? steps / 2 : steps;
+      for (int j = j_begin; j <= j_end; ++j) {
+        const double t = static_cast<double>(j) / steps;
+        const Eigen::Vector2d p = (1 - t) * (1 - t) * a[i] + 2 * (1 - t) * t * w[i] + t * t * b[i];
+        append(&path, p);
+        if (j == steps / 2 && corner_arc != nullptr && k < n) (*corner_arc)[i] = path.s.back();
+      }
+    } else {
+      append(&path, w[i]);
+      if (corner_arc != nullptr && k < n) (*corner_arc)[i] = path.s.back();
+    }
+  }
+  return path;
+}
+
+namespace {
+constexpr double kWalkerAccel = 1.0;  // m/s^2 into and out of pauses
+}
+
+WalkerMotion::WalkerMotion(const WalkerSpec& spec) : spec_(spec) {
+  std::vector<Eigen::Vector2d> pts;
+  for (const auto& w : spec.waypoints) pts.push_back(w.p);
+  std::vector<double> corner_s;
+  path_ = smooth_path(pts, true, 0.7, &corner_s);
+  const double L = path_.length();
+  // Legs run between pause points; without pauses the whole loop is one leg at cruise speed.
+  std::vector<std::size_t> pauses;
+  for (std::size_t i = 0; i < spec.waypoints.size(); ++i) {
+    if (spec.waypoints[i].pause > 0.0) pauses.push_back(i);
+  }
+  if (pauses.empty()) {
+    legs_.push_back(Leg{0.0, L, L / spec.speed, 0.0});
+  } else {
+    for (std::size_t k = 0; k < pauses.size(); ++k) {
+      const double s0 = corner_s[pauses[k]];
+      double s1 = corner_s[pauses[(k + 1) % pauses.size()]];
+      if (s1 <= s0) s1 += L;
+      Leg leg{s0, s1 - s0, 0.0, spec.waypoints[pauses[k]].pause};
+      const double v = spec.speed, d_acc = v * v / (2 * kWalkerAccel);
+      leg.duration = leg.length >= 2 * d_acc ? 2 * v / kWalkerAccel + (leg.length - 2 * d_acc) / v
+                                             : 2 * std::sqrt(leg.length / kWalkerAccel);
+      legs_.push_back(leg);
+    }
+  }
+  for (const auto& leg : legs_) period_ += leg.pause + leg.duration;
+}
+
+double WalkerMotion::leg_distance(const Leg& leg, double tau) const {
+  if (legs_.size() == 1 && leg.pause == 0.0) return spec_.speed * tau;  // endless loop
+  const double a = kWalkerAccel;
+  const double v = std::min(spec_.speed, std::sqrt(leg.length * a));
+  const double t_acc = v / a;
+  const double d_acc = 0.5 * v * t_acc;
+  if (tau <= t_acc) return 0.5 * a * tau * tau;
+  const double t_cruise = leg.duration - 2 * t_acc;
+  if (tau <= t_acc + t_cruise) return d_acc + v * (tau - t_acc);
+  const double r = std::max(0.0, leg.duration - tau);
+  return leg.length - 0.5 * a * r * r;
+}
+
+Eigen::Vector2d WalkerMotion::position(double t) const {
+  const double L = path_.length();
+  if (L <= 0.0 || period_ <= 0.0) return path_.at(0.0);
+  double tau = std::fmod(t + spec_.time_offset, period_);
+  if (tau < 0) tau += period_;
+  for (const auto& leg : legs_) {
+    // Each leg starts with the pause at its first corner, then walks to the next pause point.
+    if (tau < leg.pause) return path_.at(std::fmod(leg.s0, L));
+    tau -= leg.pause;
+    if (tau < leg.duration || &leg == &legs_.back()) {
+      return path_.at(std::fmod(leg.s0 + leg_distance(leg, std::min(tau, leg.duration)), L));
+    }
+    tau -= leg.duration;
+  }
+  return path_.at(0.0);
+}
+
+Eigen::Vector2d WalkerMotion::velocity(double t) const {
+  const double h = 1e-3;
+  return (position(t + h) - position(t - h)) / (2 * h);
+}
+
+Eigen::Quaterniond camera_rotation(double yaw, double pitch) {
+  const Eigen::Vector3d f(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch),
+                          -std::sin(pitch));
+  const Eigen::Vector3d right = f.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = f.cross(right);
+  Eigen::Matrix3d R;
+  R.col(0) = right;
+  R.col(1) = down;
+  R.col(2) = f;
+  return Eigen::Quaterniond(R).normalized();
+}
+
+CameraMotion::CameraMotion(const CameraSpec& spec) : spec_(spec) {
+  if (!spec.hover) path_ = smooth_path(spec.path, false, 1.0);
+}
+
+Eigen::Vector2d CameraMotion::position_xy(double t) const {
+  if (spec_.hover) {
+    return spec_.position.head<2>() +
+           Eigen::Vector2d(0.02 * std::sin(0.7 * t), 0.02 * std::sin(1.1 * t + 0.5));
+  }
+  return path_.at(spec_.speed * t);
+}
+
+double CameraMotion::yaw(double t) const {
+  if (spec_.hover) {
+    return spec_.yaw + spec_.yaw_sweep * std::sin(2 * M_PI * t / spec_.sweep_period);
+  }
+  const double s = std::min(spec_.speed * t, path_.length());
+  const Eigen::Vector2d d = path_.at(s + 0.4) - path_.at(s - 0.4);
+  return std::atan2(d.y(), d.x()) + 0.02 * std::sin(2 * M_PI * t / 1.8);
+}
+
+PoseD CameraMotion::pose(double t) const {
+  PoseD p;
+  const Eigen::Vector2d xy = position_xy(t);
+  const double z = spec_.hover ? spec_.position.z() + 0.01 * std::sin(1.3 * t)
+                               : spec_.position.z() + spec_.bob * std::sin(2 * M_PI * t / 0.9);
+  p.translation = Eigen::Vector3d(xy.x(), xy.y(), z);
+  p.rotation = camera_rotation(yaw(t), spec_.pitch);
+  return p;
+}
+
+CameraModel sim_camera_model() {
+  CameraModel c;
+  c.fx = 385.0;
+  c.fy = 385.0;
+  c.cx = 320.0;
+  c.cy = 240.0;
+  c.width = 640;
+  c.height = 480;
+  c.depth_factor = 1000.0;
+  c.world_z_up = 1;
+  return c;
+}
+
+std::uint64_t SplitMix64::next() {
+  std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+double SplitMix64::uniform(double lo, double hi) {
+  return lo + (hi - lo) * (static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0));
+}
+
+std::uint64_t hash3(std::uint64_t a, std::uint64_t b, std::uint64_t c) {
+  SplitMix64 r(a * 0x9E3779B97F4A7C15ull ^ (b + 0x632BE59BD9B4E019ull) * 0xD6E8FEB86659FD93ull ^
+               (c + 0x85157AF5ull) * 0xA0761D6478BD642Full);
+  return r.next();
+}
+
+}  // namespace dynamap::tools::sim

@@ -1,0 +1,208 @@
+// The built-in scenes. Layout coordinates are metres, world z up, floor at z = 0. Walker loops
+// keep at least radius + 0.1 m from the static geometry (checked by test_tools).
+#include <algorithm>
+#include <cmath>
+
+#include "common/text_io.hpp"
+#include "sim/scene.hpp"
+
+namespace dynamap::tools::sim {
+namespace {
+
+constexpr double kWallHeight = 2.5;
+constexpr double kWallThickness = 0.2;
+
+struct Builder {
+  Scene scene;
+
+  Builder(const char* name, const char* description) {
+    scene.name = name;
+    scene.description = description;
+    scene.world.has_floor = true;
+    scene.world.floor_z = 0.0;
+  }
+  void box(double x0, double y0, double x1, double y1, double h) {
+    scene.world.boxes.push_back(StaticBox{{x0, y0, 0.0}, {x1, y1, h}});
+  }
+  // Wall along an axis-aligned segment, thickness outward of the given inner line.
+  void wall_x(double x0, double x1, double y, bool outward_positive) {
+    const double y0 = outward_positive ? y : y - kWallThickness;
+    box(x0, y0, x1, y0 + kWallThickness, kWallHeight);
+  }
+  void wall_y(double y0, double y1, double x, bool outward_positive) {
+    const double x0 = outward_positive ? x : x - kWallThickness;
+    box(x0, y0, x0 + kWallThickness, y1, kWallHeight);
+  }
+  void room(double x0, double y0, double x1, double y1) {
+    const double t = kWallThickness;
+    wall_x(x0 - t, x1 + t, y0, false);
+    wall_x(x0 - t, x1 + t, y1, true);
+    wall_y(y0, y1, x0, false);
+    wall_y(y0, y1, x1, true);
+  }
+  void pillar(double x, double y, double r = 0.25, double h = kWallHeight) {
+    scene.world.cylinders.push_back(StaticCylinder{{x, y}, r, 0.0, h});
+  }
+  void standing_person(double x, double y, double h = 1.75) { pillar(x, y, 0.25, h); }
+  void walker(std::vector<Waypoint> wps, double speed, double offset = 0.0) {
+    WalkerSpec w;
+    w.waypoints = std::move(wps);
+    w.speed = speed;
+    w.time_offset = offset;
+    scene.walkers.push_back(w);
+  }
+  void hover(double x, double y, double z, double yaw, double sweep, double pitch = 0.12) {
+    auto& c = scene.camera;
+    c.hover = true;
+    c.position = {x, y, z};
+    c.yaw = yaw;
+    c.yaw_sweep = sweep;
+    c.pitch = pitch;
+  }
+  void carried(std::vector<Eigen::Vector2d> path, double z, double speed, double pitch = 0.12) {
+    auto& c = scene.camera;
+    c.hover = false;
+    c.path = std::move(path);
+    c.position = {0, 0, z};
+    c.speed = speed;
+    c.pitch = pitch;
+  }
+};
+
+Scene corridor() {
+  Builder b("corridor",
+            "straight 3.2 m wide corridor; camera carried slowly forward; two people "
+            "walking loops towards and away from it, one pausing");
+  b.wall_x(-1.2, 16.2, -1.6, false);
+  b.wall_x(-1.2, 16.2, 1.6, true);
+  b.wall_y(-1.8, 1.8, -1.0, false);
+  b.wall_y(-1.8, 1.8, 16.0, true);
+  b.carried({{0.0, 0.0}, {3.0, 0.0}}, 1.3, 0.3);
+  b.walker({{{11.5, 0.45}}, {{5.0, 0.45}}, {{5.0, -0.45}}, {{11.5, -0.45}}}, 1.0, 0.0);
+  b.walker({{{7.5, -1.1}}, {{14.5, -1.1}}, {{14.5, 1.1}, 1.5}, {{7.5, 1.1}}}, 1.3, 3.0);
+  return b.scene;
+}
+
+Scene l_corridor() {
+  Builder b("l_corridor",
+            "L-shaped corridor; camera carried to the corner and around it; one "
+            "person walking around the corner, one pausing in the far leg");
+  // Leg A along +x (inner y in [-1.5, 1.5]), leg B along +y (inner x in [6, 9]).
+  b.wall_x(-1.2, 9.2, -1.5, false);  // south wall of leg A
+  b.wall_x(-1.2, 6.0, 1.5, true);    // north wall of leg A, up to the corner
+  b.wall_y(-1.7, 12.2, 9.0, true);   // east wall of both legs
+  b.wall_y(1.5, 12.2, 6.0, false);   // west wall of leg B
+  b.wall_y(-1.7, 1.7, -1.0, false);  // back wall of leg A
+  b.wall_x(5.8, 9.2, 12.0, true);    // end wall of leg B
+  b.carried({{1.0, 0.0}, {7.5, 0.0}, {7.5, 4.0}}, 1.3, 0.7);
+  b.walker({{{3.5, -0.7}}, {{8.0, -0.7}}, {{8.0, 3.0}}, {{7.0, 3.0}}, {{7.0, 0.7}}, {{3.5, 0.7}}},
+           1.0, 2.0);
+  b.walker({{{6.9, 5.0}}, {{6.9, 11.0}, 2.0}, {{8.1, 11.0}}, {{8.1, 5.0}}}, 1.2, 1.0);
+  return b.scene;
+}
+
+Scene env_a() {
+  Builder b("env_a",
+            "most cluttered room: pillars, crates, shelves and a standing person; four "
+            "people walking around them, two pausing; camera hovering with a yaw sweep");
+  b.room(0.0, -5.0, 14.0, 5.0);
+  b.pillar(4.5, 1.6);
+  b.pillar(6.5, -1.8);
+  b.pillar(9.0, 2.4);
+  b.pillar(10.5, -2.2);
+  b.pillar(12.0, 0.8, 0.3);
+  b.box(8.4, -0.4, 9.2, 0.4, 1.2);   // crate
+  b.box(4.0, -3.8, 4.8, -3.0, 1.0);  // crate
+  b.box(11.8, 3.0, 12.8, 4.0, 1.5);  // crate
+  b.box(5.5, 3.6, 7.2, 4.1, 1.8);    // shelf along the north wall
+  b.box(7.0, -4.7, 8.6, -4.2, 1.8);  // shelf along the south wall
+  b.box(2.6, -2.6, 3.2, -2.0, 0.8);  // low box
+  b.standing_person(6.8, 1.2);
+  b.hover(2.0, 0.0, 1.4, 0.0, 0.20);
+  b.walker({{{7.6, -1.1}}, {{10.0, -1.1}}, {{10.0, 1.1}}, {{7.6, 1.1}, 1.0}}, 1.0, 0.0);
+  b.walker({{{3.6, -1.0}}, {{5.6, -0.8}}, {{5.6, 0.5}}, {{3.6, 0.7}, 1.0}}, 1.2, 2.0);
+  b.walker({{{4.8, 2.7}}, {{8.2, 3.2}}, {{10.4, 3.0}, 1.5}, {{10.4, 1.6}}, {{7.9, 1.7}}}, 0.8, 4.0);
+  b.walker({{{5.2, -1.9}}, {{6.6, -3.3}}, {{8.0, -2.4}}, {{6.6, -0.9}}}, 0.9, 1.0);
+  return b.scene;
+}
+
+Scene env_b() {
+  Builder b("env_b",
+            "medium clutter: two pillars and two crates; three people walking; camera "
+            "carried slowly along a gentle curve");
+  b.room(0.0, -4.5, 13.0, 4.5);
+  b.pillar(5.5, 1.5);
+  b.pillar(8.5, -1.5);
+  b.box(6.8, 0.2, 7.6, 1.0, 1.1);
+  b.box(9.5, 1.8, 10.5, 2.8, 1.4);
+  b.carried({{0.8, -0.8}, {2.5, -0.2}, {4.0, 0.6}}, 1.35, 0.3);
+  b.walker(
+      {{{4.5, -0.6}}, {{8.0, -0.4}}, {{10.8, -0.2}}, {{11.2, -2.6}}, {{7.0, -2.8}}, {{5.2, -2.2}}},
+      1.1, 0.0);
+  b.walker({{{7.4, 3.3}}, {{9.0, 1.0}, 1.2}, {{11.5, 0.8}}, {{11.8, 3.4}}, {{8.0, 3.6}}}, 0.9, 3.0);
+  b.walker({{{4.6, 3.0}}, {{6.6, 2.6}}, {{6.2, 0.0}}, {{4.2, 0.6}}}, 0.7, 1.0);
+  return b.scene;
+}
+
+Scene env_c() {
+  Builder b("env_c",
+            "simplest: an open room with one crate; two people walking; camera "
+            "hovering still");
+  b.room(0.0, -5.0, 12.0, 5.0);
+  b.box(8.0, 1.5, 9.0, 2.5, 1.0);
+  b.hover(1.5, 0.0, 1.3, 0.0, 0.0, 0.10);
+  b.walker({{{4.0, -1.5}}, {{8.0, -1.5}}, {{8.0, 0.5}}, {{4.0, 0.5}}}, 1.0, 0.0);
+  b.walker({{{5.0, 2.0}}, {{6.5, 3.2}}, {{10.0, 3.2}}, {{10.5, 0.6}, 1.0}, {{6.0, 1.0}}}, 1.3, 2.0);
+  return b.scene;
+}
+
+Scene standing() {
+  Builder b("standing",
+            "three people who never move and two crates; camera carried past them "
+            "(nothing here should be labelled dynamic)");
+  b.room(0.0, -4.0, 11.0, 4.0);
+  b.standing_person(4.5, 0.8);
+  b.standing_person(6.0, -1.2, 1.65);
+  b.standing_person(8.0, 1.6, 1.85);
+  b.box(7.0, -0.3, 7.8, 0.5, 1.0);
+  b.box(9.0, -2.8, 10.0, -1.8, 1.3);
+  b.carried({{0.8, -1.5}, {2.5, -0.5}, {3.2, 1.8}}, 1.35, 0.35);
+  return b.scene;
+}
+
+}  // namespace
+
+std::vector<std::string> scene_names() {
+  return {"corridor", "l_corridor", "env_a", "env_b", "env_c", "standing"};
+}
+
+Scene make_scene(const std::string& name, std::uint64_t seed) {
+  Scene s;
+  if (name == "corridor") {
+    s = corridor();
+  } else if (name == "l_corridor") {
+    s = l_corridor();
+  } else if (name == "env_a") {
+    s = env_a();
+  } else if (name == "env_b") {
+    s = env_b();
+  } else if (name == "env_c") {
+    s = env_c();
+  } else if (name == "standing") {
+    s = standing();
+  } else {
+    std::string known;
+    for (const auto& n : scene_names()) known += " " + n;
+    throw ToolError("unknown scene '" + name + "' (built-in scenes:" + known + ")");
+  }
+  SplitMix64 rng(seed ^ 0x5CE9E5EEDull);
+  for (auto& w : s.walkers) {
+    w.speed = std::clamp(w.speed * rng.uniform(0.92, 1.08), 0.5, 1.5);
+    w.radius = rng.uniform(0.23, 0.27);
+    w.height = rng.uniform(1.62, 1.85);
+    w.time_offset += rng.uniform(0.0, 0.5);
+  }
+  return s;
+}
+
+}  // namespace dynamap::tools::sim
