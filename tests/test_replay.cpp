@@ -1,0 +1,153 @@
+// End-to-end tests of dynamap-replay: a short simulated sequence replays and evaluates, and
+// malformed inputs give a clear error naming the file (and line) with a non-zero exit.
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "common/text_io.hpp"
+#include "eval/metrics.hpp"
+#include "sim/scene.hpp"
+#include "sim/writer.hpp"
+
+namespace dynamap::tools {
+namespace {
+
+struct RunResult {
+  int exit_code;
+  std::string output;  // stdout + stderr
+};
+
+RunResult run_replay(const std::string& args) {
+  const std::string log = ::testing::TempDir() + "replay_log.txt";
+  const std::string cmd = std::string(DYNAMAP_REPLAY_EXE) + " " + args + " > " + log + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  std::ifstream f(log);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return RunResult{WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, ss.str()};
+}
+
+std::string fresh_dir(const std::string& name) {
+  const std::string d = ::testing::TempDir() + "dynamap_replay_" + name;
+  (void)std::system(("rm -rf '" + d + "'").c_str());
+  return d;
+}
+
+// One short env_c sequence shared by the tests (simulated once).
+const std::string& corridor_sequence() {
+  static const std::string dir = [] {
+    const std::string d = fresh_dir("env_c");
+    sim::SimulateOptions o;
+    o.frames = 120;
+    o.picture = false;
+    (void)sim::simulate(sim::make_scene("env_c", 1), d, o);
+    return d;
+  }();
+  return dir;
+}
+
+TEST(Replay, RunsEndToEndAndTheMetricsShowAWorkingTracker) {
+  const std::string out = fresh_dir("env_c_out");
+  const RunResult r = run_replay(corridor_sequence() + " --out " + out + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("120 processed"), std::string::npos) << r.output;
+  for (const char* f : {"tracks.csv", "predictions.csv", "predictions_linear.csv", "timing.csv",
+                        "topview.png"}) {
+    EXPECT_TRUE(file_exists(join_path(out, f))) << f;
+  }
+  const eval::EvalResult m = eval::evaluate(corridor_sequence(), out);
+  ASSERT_GT(m.gt_count, 20u);
+  // Sanity at a small scale (the goals themselves are measured on full scenes by
+  // scripts/paper_tables.sh and written down in docs/evaluation.md): walkers are found and
+  // labelled dynamic, and nothing static is.
+  EXPECT_GE(m.recall, 0.6);
+  EXPECT_GE(m.precision, 0.9);
+  EXPECT_LE(m.position_error, 0.3);
+  EXPECT_LE(m.velocity_error, 0.4);
+}
+
+TEST(Replay, MissingSequenceIsAClearError) {
+  const RunResult r = run_replay("/nonexistent/seq --out " + fresh_dir("x"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("/nonexistent/seq"), std::string::npos) << r.output;
+}
+
+TEST(Replay, MissingOutOptionPrintsUsage) {
+  const RunResult r = run_replay(corridor_sequence());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("usage"), std::string::npos) << r.output;
+}
+
+// Copies the first frames of the corridor into a new sequence directory we can break.
+std::string small_copy(const std::string& name) {
+  const std::string d = fresh_dir(name);
+  const std::string src = corridor_sequence();
+  const std::string cmd = "mkdir -p '" + d + "/depth' && cp '" + src + "/camera.txt' '" + src +
+                          "/groundtruth.txt' '" + d + "/' && head -n 6 '" + src +
+                          "/depth.txt' > '" + d + "/depth.txt' && for f in $(tail -n +1 '" + d +
+                          "/depth.txt' | grep -v '^#' | awk '{print $2}'); do cp '" + src +
+                          "/'$f '" + d + "/'$f; done";
+  EXPECT_EQ(std::system(cmd.c_str()), 0);
+  return d;
+}
+
+TEST(Replay, BadLineInDepthListNamesFileAndLine) {
+  const std::string d = small_copy("badline");
+  std::ofstream(d + "/depth.txt", std::ios::app) << "not-a-number depth/x.png\n";
+  const RunResult r = run_replay(d + " --out " + fresh_dir("badline_out"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("depth.txt:"), std::string::npos) << r.output;
+}
+
+TEST(Replay, NonSixteenBitPngNamesTheFile) {
+  const std::string d = small_copy("png8");
+  // Overwrite the first listed depth image with an 8-bit PNG (the eval picture writer's kind).
+  std::ifstream list(d + "/depth.txt");
+  std::string line, first;
+  while (std::getline(list, line)) {
+    if (!line.empty() && line[0] != '#') {
+      first = line.substr(line.find(' ') + 1);
+      break;
+    }
+  }
+  ASSERT_FALSE(first.empty());
+  // A valid 1x1 8-bit grayscale PNG.
+  static const unsigned char png8[] = {
+      0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48,
+      0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x00, 0x00, 0x00,
+      0x00, 0x3a, 0x7e, 0x9b, 0x55, 0x00, 0x00, 0x00, 0x0a, 0x49, 0x44, 0x41, 0x54, 0x78,
+      0x9c, 0x63, 0x60, 0x00, 0x00, 0x00, 0x02, 0x00, 0x01, 0x48, 0xaf, 0xa4, 0x71, 0x00,
+      0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+  std::ofstream(d + "/" + first, std::ios::binary)
+      .write(reinterpret_cast<const char*>(png8), sizeof(png8));
+  const RunResult r = run_replay(d + " --out " + fresh_dir("png8_out"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find(first), std::string::npos) << r.output;
+}
+
+TEST(Replay, UnknownParameterKeyNamesFileLineAndKey) {
+  const std::string params = ::testing::TempDir() + "bad_params.yaml";
+  std::ofstream(params) << "map:\n  resolution: 0.1\n  resolutoin: 0.2\n";
+  const RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("p_out") +
+                                 " --params " + params);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find(params + ":3"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("map.resolutoin"), std::string::npos) << r.output;
+}
+
+TEST(Replay, BadParameterValueIsRefused) {
+  const std::string params = ::testing::TempDir() + "bad_value.yaml";
+  std::ofstream(params) << "tracker:\n  overlap_threshold: 3.5\n";
+  const RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("v_out") +
+                                 " --params " + params);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("tracker.overlap_threshold"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace dynamap::tools

@@ -1,0 +1,117 @@
+// dynamap-tables ROOT SCENE...: the paper's three tables from simulated runs. For each scene it
+// expects the sequence in ROOT/SCENE and the replay's results in ROOT/SCENE_out, evaluates them
+// (the same evaluation as dynamap-eval) and prints, as markdown:
+//   Table I   position and velocity error per scene (+ recall, precision, MOTA, ID switches)
+//   Table II  runtime per module (median and p99 over all frames of all scenes, from timing.csv)
+//   Failure   Markov vs linear prediction failure ratio per environment
+// The same text is written to ROOT/tables.md.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common/text_io.hpp"
+#include "eval/metrics.hpp"
+
+using namespace dynamap::tools;
+
+namespace {
+
+std::string fmt(double v, int decimals) {
+  if (std::isnan(v)) return "n/a";
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const std::size_t r = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, r == 0 ? 0 : r - 1)];
+}
+
+// timing.csv: header "stamp,<stage>...,total", values in microseconds.
+void read_timing(const std::string& path, std::vector<std::string>& names,
+                 std::vector<std::vector<double>>& columns) {
+  const std::vector<std::string> lines = read_lines(path);
+  if (lines.empty()) throw ToolError(path + ": empty");
+  const std::vector<std::string> header = split_csv(lines[0]);
+  if (names.empty()) {
+    names.assign(header.begin() + 1, header.end());
+    columns.assign(names.size(), {});
+  } else if (std::vector<std::string>(header.begin() + 1, header.end()) != names) {
+    throw ToolError(path + ":1: timing columns differ from the other scenes'");
+  }
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    const std::vector<std::string> f = split_csv(lines[i]);
+    if (f.size() != header.size()) throw ToolError(path + ":" + std::to_string(i + 1) + ": wrong column count");
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      columns[k].push_back(parse_double(f[k + 1], TextLocation{path, i + 1}, names[k].c_str()));
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: dynamap-tables ROOT SCENE...  (expects ROOT/SCENE and ROOT/SCENE_out)\n");
+    return 2;
+  }
+  try {
+    const std::string root = argv[1];
+    std::ostringstream t1, t3;
+    std::vector<std::string> stage_names;
+    std::vector<std::vector<double>> stage_us;
+    t1 << "### Table I: tracking accuracy per scene (dynamic obstacles, DATA_FORMAT.md metrics)\n\n"
+       << "| scene | GT obstacle-frames | position error (m) | velocity error (m/s) | recall | "
+          "precision | MOTA | ID switches | dynamic rows |\n|---|---|---|---|---|---|---|---|---|\n";
+    t3 << "### Prediction failure ratio (chosen path collides with the true static world, or no "
+          "path is free)\n\n| scene | predictions | Markov | linear baseline | Markov / linear |\n"
+          "|---|---|---|---|---|\n";
+    for (int i = 2; i < argc; ++i) {
+      const std::string scene = argv[i];
+      const std::string seq = join_path(root, scene);
+      const std::string out = join_path(root, scene + "_out");
+      const eval::EvalResult r = eval::evaluate(seq, out);
+      t1 << "| " << scene << " | " << r.gt_count << " | " << fmt(r.position_error, 3) << " | "
+         << fmt(r.velocity_error, 3) << " | " << fmt(r.recall, 3) << " | " << fmt(r.precision, 3)
+         << " | " << fmt(r.mota, 3) << " | " << r.id_switches << " | " << r.dynamic_track_rows
+         << " |\n";
+      if (r.markov.available) {
+        const double ratio = r.linear.available && r.linear.failure_ratio > 0
+                                 ? r.markov.failure_ratio / r.linear.failure_ratio
+                                 : std::nan("");
+        t3 << "| " << scene << " | " << r.markov.predictions << " | "
+           << fmt(r.markov.failure_ratio, 3) << " | "
+           << (r.linear.available ? fmt(r.linear.failure_ratio, 3) : "n/a") << " | "
+           << fmt(ratio, 2) << " |\n";
+      }
+      read_timing(join_path(out, "timing.csv"), stage_names, stage_us);
+    }
+    std::ostringstream t2;
+    t2 << "### Table II: runtime per module (this machine, one core; all frames of all scenes)\n\n"
+       << "| module | median (ms) | p99 (ms) | share of summed medians |\n|---|---|---|---|\n";
+    double sum = 0;
+    for (std::size_t k = 0; k + 1 < stage_names.size(); ++k) sum += percentile(stage_us[k], 0.5);
+    for (std::size_t k = 0; k < stage_names.size(); ++k) {
+      const bool total = k + 1 == stage_names.size();
+      const double med = percentile(stage_us[k], 0.5);
+      t2 << "| " << (total ? "**total**" : stage_names[k]) << " | " << fmt(med * 1e-3, 3) << " | "
+         << fmt(percentile(stage_us[k], 0.99) * 1e-3, 3) << " | "
+         << (total ? std::string("") : fmt(100.0 * med / sum, 0) + " %") << " |\n";
+    }
+    const std::string text = t1.str() + "\n" + t2.str() + "\n" + t3.str();
+    std::printf("%s", text.c_str());
+    std::ofstream f(join_path(root, "tables.md"));
+    f << text;
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dynamap-tables: error: %s\n", e.what());
+    return 1;
+  }
+}
