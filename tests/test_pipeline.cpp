@@ -53,6 +53,29 @@ struct WalkerScenario {
   }
 };
 
+// Runs the walker scenario and records every output number, for bit-exact comparisons.
+std::uint64_t run_walker_trace(const PipelineConfig& cfg, std::vector<float>& trace, int frames) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  EXPECT_EQ(p->init(cfg), Status::kOk);
+  WalkerScenario s;
+  for (int i = 0; i < frames; ++i) {
+    EXPECT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
+    for (std::size_t k = 0; k < out->num_obstacles; ++k) {
+      const TrackedObstacle& o = out->obstacles[k];
+      trace.insert(trace.end(), {static_cast<float>(o.id), o.box.min.x(), o.box.min.y(),
+                                 o.box.max.z(), o.velocity.x(), o.velocity.y(),
+                                 o.dynamic ? 1.f : 0.f});
+    }
+    for (std::size_t k = 0; k < out->num_predictions; ++k) {
+      const PathPrediction& pr = out->predictions[k];
+      trace.push_back(static_cast<float>(pr.chosen));
+      trace.insert(trace.end(), pr.probability.begin(), pr.probability.end());
+    }
+  }
+  return p->map().checksum();
+}
+
 TEST(PipelineConfig, DefaultsAreValidAndFitTheMemoryBudget) {
   EXPECT_TRUE(validate(PipelineConfig{}).ok());
   EXPECT_LE(Pipeline::memory_bytes(), 32u * 1024u * 1024u) << "default footprint over 32 MiB";
@@ -245,33 +268,27 @@ TEST(Pipeline, EveryBadInputGetsItsStatusAndChangesNothing) {
 
 TEST(Pipeline, SameSequenceGivesBitIdenticalOutputs) {
   const PipelineConfig cfg = small_camera_config();
-  auto run = [&](std::vector<float>& trace) {
-    auto p = std::make_unique<Pipeline>();
-    auto out = std::make_unique<FrameOutput>();
-    EXPECT_EQ(p->init(cfg), Status::kOk);
-    WalkerScenario s;
-    for (int i = 0; i < 60; ++i) {
-      EXPECT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
-      for (std::size_t k = 0; k < out->num_obstacles; ++k) {
-        const TrackedObstacle& o = out->obstacles[k];
-        trace.insert(trace.end(), {static_cast<float>(o.id), o.box.min.x(), o.box.min.y(),
-                                   o.box.max.z(), o.velocity.x(), o.velocity.y(),
-                                   o.dynamic ? 1.f : 0.f});
-      }
-      for (std::size_t k = 0; k < out->num_predictions; ++k) {
-        const PathPrediction& pr = out->predictions[k];
-        trace.push_back(static_cast<float>(pr.chosen));
-        trace.insert(trace.end(), pr.probability.begin(), pr.probability.end());
-      }
-    }
-    return p->map().checksum();
-  };
   std::vector<float> a, b;
-  const std::uint64_t ca = run(a);
-  const std::uint64_t cb = run(b);
+  const std::uint64_t ca = run_walker_trace(cfg, a, 60);
+  const std::uint64_t cb = run_walker_trace(cfg, b, 60);
   EXPECT_EQ(ca, cb);
   ASSERT_EQ(a.size(), b.size());
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
+}
+
+// The fast U-map kernel (NEON on aarch64, the vectorised host loop elsewhere) and the scalar
+// reference give the same outputs, bit for bit, through the whole pipeline.
+TEST(Pipeline, FastAndScalarHistogramKernelsGiveIdenticalOutputs) {
+  PipelineConfig cfg = small_camera_config();
+  cfg.detector.use_fast_histogram = true;
+  std::vector<float> fast, scalar;
+  const std::uint64_t cf = run_walker_trace(cfg, fast, 45);
+  cfg.detector.use_fast_histogram = false;
+  const std::uint64_t cs = run_walker_trace(cfg, scalar, 45);
+  EXPECT_EQ(cf, cs);
+  ASSERT_EQ(fast.size(), scalar.size());
+  ASSERT_FALSE(fast.empty());
+  EXPECT_EQ(std::memcmp(fast.data(), scalar.data(), fast.size() * sizeof(float)), 0);
 }
 
 // A fake clock that advances a fixed step at every read makes the budget logic deterministic.
