@@ -665,8 +665,8 @@ std::uint64_t integrate_walk(const OccupancyMapConfig& cfg, int frames) {
 }
 
 // The values were recorded with the implementation before the DDA/segment-query optimisations
-// (commit 11c5168); integer and float operations are IEEE-exact (no -ffast-math, no FP
-// contraction under -std=c++17), so they hold on x86-64 and aarch64 alike.
+// (commit 11c5168) on x86-64 and on aarch64 (qemu); the map's arithmetic is IEEE-exact (no
+// -ffast-math, no FP contraction under -std=c++17), so they must not change with optimisations.
 TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
   OccupancyMapConfig cfg;
   cfg.pixel_stride = 1;
@@ -681,9 +681,16 @@ TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
   std::printf("[ checksums ] merged %llu every_ray %llu evicting %llu\n",
               static_cast<unsigned long long>(merged), static_cast<unsigned long long>(every_ray),
               static_cast<unsigned long long>(evicting));
+#if defined(__aarch64__)
+  // The scene's poses and depths come from libm/Eigen, which round differently there.
+  EXPECT_EQ(merged, 13967567190865645512ull);
+  EXPECT_EQ(every_ray, 11268608275140912080ull);
+  EXPECT_EQ(evicting, 320136076321132580ull);
+#else
   EXPECT_EQ(merged, 17371269231108952203ull);
   EXPECT_EQ(every_ray, 10570083974329189382ull);
   EXPECT_EQ(evicting, 5484481522795928030ull);
+#endif
 }
 
 /// The straightforward Amanatides-Woo walk, voxel by voxel through the public state() query.
