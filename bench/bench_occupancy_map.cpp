@@ -256,6 +256,7 @@ struct RunResult {
   double min_ms = 0, wall_median_ms = 0;
   double median_ms = 0, updates_per_s = 0, mean_rays = 0, mean_visits = 0;
   std::size_t memory = 0, used = 0;
+  std::uint64_t checksum = 0;  // map state after the run (bit-exactness check across versions)
 };
 
 RunResult run_dynamap(bool merge, int passes) {
@@ -293,6 +294,7 @@ RunResult run_dynamap(bool merge, int passes) {
   r.mean_visits = visits / static_cast<double>(ms.size());
   r.memory = map->memory_bytes();
   r.used = map->blocks_in_use();
+  r.checksum = map->checksum();
   return r;
 }
 
@@ -328,8 +330,9 @@ void print_summary(bool quick) {
       static_cast<double>(d.returns) / kFrames, static_cast<double>(d.no_returns) / kFrames);
   const RunResult ours = run_dynamap(true, 5);
   if (quick) {
-    std::printf("dynamap (merge): median %.3f ms cpu (%.3f wall), min %.3f ms cpu\n",
-                ours.median_ms, ours.wall_median_ms, ours.min_ms);
+    std::printf("dynamap (merge): median %.3f ms cpu (%.3f wall), min %.3f ms cpu, checksum %llu\n",
+                ours.median_ms, ours.wall_median_ms, ours.min_ms,
+                static_cast<unsigned long long>(ours.checksum));
     return;
   }
   const RunResult exact = run_dynamap(false, 1);

@@ -195,6 +195,12 @@ bool OccupancyMap::box_range(const Box3& box, IndexVec& lo, IndexVec& hi) const 
 
 bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                                              Eigen::Vector3f* hit) const noexcept {
+  // Amanatides-Woo walk. Within a block that holds occupied voxels it goes voxel by voxel; a
+  // missing block or one without occupied voxels is crossed in one go: each axis's t sequence
+  // (t_max, t_max + t_delta, ...) does not depend on the other axes, and the walk visits the
+  // merged sequence in (t, axis) order, so the step that leaves the block is the axis whose
+  // boundary-crossing t is smallest (ties to the lower axis, as in the voxel walk). The same
+  // float additions are made in the same order, so the result is exactly the voxel walk's.
   IndexVec idx{}, end{};
   if (!initialized_ || !index_of(a, idx) || !index_of(b, end)) return false;
   const Eigen::Vector3f d = b - a;
@@ -203,6 +209,7 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
   float t_max[3];
   float t_delta[3];
   constexpr float kInf = std::numeric_limits<float>::infinity();
+  constexpr std::int32_t kMask = kBlockEdge - 1;
   for (std::size_t ax = 0; ax < 3; ++ax) {
     const int e = static_cast<int>(ax);
     remaining[ax] = std::abs(end[ax] - idx[ax]);
@@ -217,30 +224,76 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
     t_max[ax] = (boundary - a[e]) / d[e];
     t_delta[ax] = resolution_ / std::fabs(d[e]);
   }
-  const Block* block = nullptr;
-  IndexVec block_idx{};
-  bool have_block = false;
-  for (std::size_t n = 0; n < kMaxSegmentVisits; ++n) {
-    const IndexVec bidx{idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits};
-    if (!have_block || bidx != block_idx) {  // cached accessor: one lookup per block crossed
-      block = find_block(bidx[0], bidx[1], bidx[2]);
-      block_idx = bidx;
-      have_block = true;
+  std::size_t n = 0;  // voxels visited so far (cap kMaxSegmentVisits, as for the voxel walk)
+  while (n < kMaxSegmentVisits) {
+    const Block* block =
+        find_block(idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits);
+    // Steps each axis can make before it leaves the block.
+    std::int32_t inside[3];
+    for (std::size_t ax = 0; ax < 3; ++ax) {
+      const std::int32_t local = idx[ax] & kMask;
+      inside[ax] = step[ax] > 0 ? kMask - local : local;
     }
-    if (block != nullptr && classify(block->voxels[local_index(idx[0], idx[1], idx[2])].log_odds) ==
-                                Occupancy::kOccupied) {
-      if (hit != nullptr) *hit = center_of(idx);
-      return true;
+    if (block == nullptr || block->occupied == 0) {
+      // t of each axis's boundary-crossing step (inf when its steps run out first).
+      float cross[3];
+      for (std::size_t ax = 0; ax < 3; ++ax) {
+        cross[ax] = kInf;
+        if (inside[ax] + 1 > remaining[ax]) continue;
+        float t = t_max[ax];
+        for (std::int32_t s = 0; s < inside[ax]; ++s) t += t_delta[ax];
+        cross[ax] = t;
+      }
+      std::size_t exit_ax = 0;
+      if (cross[1] < cross[exit_ax]) exit_ax = 1;
+      if (cross[2] < cross[exit_ax]) exit_ax = 2;
+      if (cross[exit_ax] == kInf) return false;  // the segment ends inside this block
+      const float t_exit = cross[exit_ax];
+      std::size_t steps = 0;
+      for (std::size_t ax = 0; ax < 3; ++ax) {
+        if (ax == exit_ax) continue;
+        // Steps of this axis that come before the exit step in (t, axis) order.
+        const std::int32_t limit = std::min(inside[ax], remaining[ax]);
+        std::int32_t k = 0;
+        float t = t_max[ax];
+        while (k < limit && (t < t_exit || (t == t_exit && ax < exit_ax))) {
+          ++k;
+          t = k == remaining[ax] ? kInf : t + t_delta[ax];
+        }
+        idx[ax] += k * step[ax];
+        remaining[ax] -= k;
+        t_max[ax] = t;
+        steps += static_cast<std::size_t>(k);
+      }
+      steps += static_cast<std::size_t>(inside[exit_ax]);
+      // Visits in this block: the current voxel and one per step inside it.
+      if (n + steps + 1 >= kMaxSegmentVisits) return false;
+      n += steps + 1;
+      const std::int32_t k = inside[exit_ax] + 1;
+      idx[exit_ax] += k * step[exit_ax];
+      remaining[exit_ax] -= k;
+      t_max[exit_ax] = remaining[exit_ax] == 0 ? kInf : t_exit + t_delta[exit_ax];
+      continue;
     }
-    if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
-    std::size_t ax = 0;
-    if (t_max[1] < t_max[ax]) ax = 1;
-    if (t_max[2] < t_max[ax]) ax = 2;
-    idx[ax] += step[ax];
-    if (--remaining[ax] == 0) {
-      t_max[ax] = kInf;
-    } else {
-      t_max[ax] += t_delta[ax];
+    // Voxel walk inside a block with occupied voxels, until the walk leaves it.
+    for (;;) {
+      if (classify(block->voxels[local_index(idx[0], idx[1], idx[2])].log_odds) ==
+          Occupancy::kOccupied) {
+        if (hit != nullptr) *hit = center_of(idx);
+        return true;
+      }
+      if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
+      std::size_t ax = 0;
+      if (t_max[1] < t_max[ax]) ax = 1;
+      if (t_max[2] < t_max[ax]) ax = 2;
+      idx[ax] += step[ax];
+      if (--remaining[ax] == 0) {
+        t_max[ax] = kInf;
+      } else {
+        t_max[ax] += t_delta[ax];
+      }
+      if (++n >= kMaxSegmentVisits) return false;
+      if (inside[ax]-- == 0) break;  // crossed into the next block
     }
   }
   return false;
@@ -271,8 +324,11 @@ Status OccupancyMap::set_log_odds(const Eigen::Vector3f& p, float value) noexcep
   if (b == nullptr) return Status::kCapacityExceeded;
   const float q =
       std::clamp(value * kLogOddsScale, static_cast<float>(q_min_), static_cast<float>(q_max_));
-  b->voxels[local_index(idx[0], idx[1], idx[2])].log_odds =
-      static_cast<std::int16_t>(std::lround(q));
+  Voxel& v = b->voxels[local_index(idx[0], idx[1], idx[2])];
+  const auto updated = static_cast<std::int16_t>(std::lround(q));
+  b->occupied = static_cast<std::uint16_t>(b->occupied + (updated > q_occupied_) -
+                                           (v.log_odds > q_occupied_));
+  v.log_odds = updated;
   return Status::kOk;
 }
 
@@ -292,6 +348,7 @@ OccupancyMap::Block* OccupancyMap::allocate_block(std::int32_t bi, std::int32_t 
   Block& b = pool_[slot];
   b.voxels.fill(Voxel{kUnknown, 0});
   b.index = {bi, bj, bk};
+  b.occupied = 0;
   b.last_frame = frames_;
   ++stats_.blocks_allocated;
   return &b;
@@ -421,7 +478,7 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   const int margin = config_.pixel_margin, stride = config_.pixel_stride;
   const int width = cam_->width, height = cam_->height;
   const std::size_t max_rays = config_.max_rays_per_frame;
-  const std::int32_t q_hit = q_hit_, q_max = q_max_;
+  const std::int32_t q_hit = q_hit_, q_max = q_max_, q_occupied = q_occupied_;
   Block* block = nullptr;
   std::int32_t bx = 0, by = 0, bz = 0;
   bool have_block = false;
@@ -464,7 +521,10 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
       if (is_hit) {
         if (stamp != hit_stamp) {
           const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
-          vx.log_odds = static_cast<std::int16_t>(std::min(current + q_hit, q_max));
+          const std::int32_t updated = std::min(current + q_hit, q_max);
+          block->occupied = static_cast<std::uint16_t>(block->occupied + (updated > q_occupied) -
+                                                       (vx.log_odds > q_occupied));
+          vx.log_odds = static_cast<std::int16_t>(updated);
           vx.stamp = hit_stamp;
           ++updates;
           ++hits;
@@ -490,7 +550,7 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
   const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
   const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
   const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
-  const std::int32_t q_miss = q_miss_, q_min = q_min_;
+  const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
   const float res = resolution_;
   constexpr float kInf = std::numeric_limits<float>::infinity();
   IndexVec start{};
@@ -559,6 +619,8 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
         vx.log_odds = fresh ? updated : old.log_odds;
         vx.stamp = fresh ? miss_stamp : old.stamp;
         updates += fresh ? 1u : 0u;
+        // A miss can only turn occupied into free (rare, so a well-predicted branch).
+        if (old.log_odds > q_occupied && fresh && updated <= q_occupied) --block->occupied;
       }
       // Branch-free choice of the axis with the nearest boundary (the branchy version
       // mispredicts on most steps).

@@ -627,5 +627,186 @@ TEST(OccupancyMap, KeysRoundTripAndMemoryIsTheObjectSize) {
   EXPECT_NEAR(map->log_odds(Vec3(1.f, 1.f, 1.f)), 3.476f, kQuantum);
 }
 
+// ---- regression: optimisations must not change a single voxel ---------------------------------
+
+/// A 7 x 6 x 3 m room with furniture, open on the +x side (no-return pixels there).
+Scene regression_room() {
+  Scene s;
+  s.planes = {Plane{Vec3(0, 0, 0), Vec3(0, 0, 1)}, Plane{Vec3(0, 0, 3.02f), Vec3(0, 0, -1)},
+              Plane{Vec3(-3.03f, 0, 0), Vec3(1, 0, 0)}, Plane{Vec3(0, 3.01f, 0), Vec3(0, -1, 0)},
+              Plane{Vec3(0, -2.97f, 0), Vec3(0, 1, 0)}};
+  s.boxes = {Box3{Vec3(1.0f, -1.4f, 0.f), Vec3(2.0f, -0.6f, 0.75f)},
+             Box3{Vec3(2.4f, 0.9f, 0.f), Vec3(2.9f, 2.1f, 1.8f)},
+             Box3{Vec3(-0.35f, 1.85f, 0.f), Vec3(-0.05f, 2.15f, 3.0f)},
+             Box3{Vec3(-2.2f, -1.0f, 0.f), Vec3(-1.7f, -0.5f, 1.7f)}};
+  return s;
+}
+
+/// Hash of the map state and the integration counters after a fixed camera walk.
+std::uint64_t integrate_walk(const OccupancyMapConfig& cfg, int frames) {
+  auto map = make_map(cfg);
+  const CameraIntrinsics cam = small_camera(320, 240);
+  const Scene scene = regression_room();
+  std::uint64_t h = 0;
+  for (int f = 0; f < frames; ++f) {
+    const float s = static_cast<float>(f) / static_cast<float>(frames);
+    const Pose pose = make_pose(Vec3(-1.5f + 2.5f * s, -0.8f + 1.2f * s, 1.1f + 0.3f * s),
+                                -1.2f + 4.0f * s, 0.15f * std::sin(7.f * s), 0.1f * s);
+    const DepthImage img = render(scene, cam, pose);
+    EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs),
+              Status::kOk);
+    const IntegrationStats& st = map->last_stats();
+    for (std::size_t x : {st.rays, st.rays_dropped, st.voxel_visits, st.voxel_updates, st.hits,
+                          st.blocks_allocated, st.blocks_evicted, st.updates_dropped}) {
+      h = h * 1000003u + x;
+    }
+  }
+  return h ^ map->checksum();
+}
+
+// The values were recorded with the implementation before the DDA/segment-query optimisations
+// (commit 11c5168) on x86-64 and on aarch64 (qemu); the map's arithmetic is IEEE-exact (no
+// -ffast-math, no FP contraction under -std=c++17), so they must not change with optimisations.
+TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
+  OccupancyMapConfig cfg;
+  cfg.pixel_stride = 1;
+  const std::uint64_t merged = integrate_walk(cfg, 12);
+  cfg.merge_rays_per_voxel = false;
+  cfg.max_voxel_visits_per_frame = 20'000'000;
+  const std::uint64_t every_ray = integrate_walk(cfg, 6);
+  OccupancyMapConfig tiny;
+  tiny.max_blocks = 96;                      // evicts every frame
+  tiny.max_voxel_visits_per_frame = 40'000;  // and hits the visit cap
+  const std::uint64_t evicting = integrate_walk(tiny, 12);
+  std::printf("[ checksums ] merged %llu every_ray %llu evicting %llu\n",
+              static_cast<unsigned long long>(merged), static_cast<unsigned long long>(every_ray),
+              static_cast<unsigned long long>(evicting));
+#if defined(__aarch64__)
+  // The scene's poses and depths come from libm/Eigen, which round differently there.
+  EXPECT_EQ(merged, 13967567190865645512ull);
+  EXPECT_EQ(every_ray, 11268608275140912080ull);
+  EXPECT_EQ(evicting, 320136076321132580ull);
+#else
+  EXPECT_EQ(merged, 17371269231108952203ull);
+  EXPECT_EQ(every_ray, 10570083974329189382ull);
+  EXPECT_EQ(evicting, 5484481522795928030ull);
+#endif
+}
+
+/// The straightforward Amanatides-Woo walk, voxel by voxel through the public state() query.
+bool reference_first_occupied(const OccupancyMap& map, const Vec3& a, const Vec3& b, Vec3* hit) {
+  const float res = map.resolution();
+  const float inv = 1.f / res;
+  std::int32_t idx[3], end[3], step[3], remaining[3];
+  float t_max[3], t_delta[3];
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const Vec3 d = b - a;
+  for (int ax = 0; ax < 3; ++ax) {
+    idx[ax] = static_cast<std::int32_t>(std::floor(a[ax] * inv));
+    end[ax] = static_cast<std::int32_t>(std::floor(b[ax] * inv));
+    remaining[ax] = std::abs(end[ax] - idx[ax]);
+    step[ax] = end[ax] > idx[ax] ? 1 : -1;
+    if (remaining[ax] == 0 || d[ax] == 0.f) {
+      remaining[ax] = 0;
+      t_max[ax] = kInf;
+      t_delta[ax] = kInf;
+      continue;
+    }
+    t_max[ax] = (static_cast<float>(idx[ax] + (step[ax] > 0 ? 1 : 0)) * res - a[ax]) / d[ax];
+    t_delta[ax] = res / std::fabs(d[ax]);
+  }
+  for (;;) {
+    const Vec3 c((static_cast<float>(idx[0]) + 0.5f) * res,
+                 (static_cast<float>(idx[1]) + 0.5f) * res,
+                 (static_cast<float>(idx[2]) + 0.5f) * res);
+    if (map.state(c) == Occupancy::kOccupied) {
+      *hit = c;
+      return true;
+    }
+    if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
+    int ax = 0;
+    if (t_max[1] < t_max[ax]) ax = 1;
+    if (t_max[2] < t_max[ax]) ax = 2;
+    idx[ax] += step[ax];
+    if (--remaining[ax] == 0) {
+      t_max[ax] = kInf;
+    } else {
+      t_max[ax] += t_delta[ax];
+    }
+  }
+}
+
+TEST(OccupancyMap, SegmentQueryMatchesReferenceWalk) {
+  OccupancyMapConfig cfg;
+  auto map = make_map(cfg);
+  const CameraIntrinsics cam = small_camera(320, 240);
+  const Scene scene = regression_room();
+  for (int f = 0; f < 8; ++f) {
+    const Pose pose = make_pose(Vec3(-1.f + 0.2f * static_cast<float>(f), 0.3f, 1.2f),
+                                0.8f * static_cast<float>(f));
+    const DepthImage img = render(scene, cam, pose);
+    ASSERT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs),
+              Status::kOk);
+  }
+  // Thin obstacles placed by hand, some far from anything integrated (isolated blocks), and a
+  // voxel set occupied then cleared again (its block holds no occupied voxel any more).
+  std::uint32_t rng = 12345u;
+  const auto uniform = [&](float lo, float hi) {
+    rng = rng * 1664525u + 1013904223u;
+    return lo + (hi - lo) * static_cast<float>(rng >> 8) / 16777216.f;
+  };
+  for (int i = 0; i < 40; ++i) {
+    const Vec3 p(uniform(-9.f, 9.f), uniform(-9.f, 9.f), uniform(-1.f, 4.f));
+    ASSERT_EQ(map->set_log_odds(p, 2.f), Status::kOk);
+  }
+  ASSERT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), 2.f), Status::kOk);
+  ASSERT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), -1.f), Status::kOk);
+  EXPECT_EQ(map->clear_box(Box3{Vec3(2.3f, 0.8f, 0.f), Vec3(3.0f, 1.5f, 1.0f)}, 1u << 20,
+                           [](OccupancyMap::VoxelKey, const Vec3&) {}) > 0,
+            true);
+
+  std::size_t hits = 0, checked = 0;
+  for (int i = 0; i < 20000; ++i) {
+    Vec3 a(uniform(-10.f, 10.f), uniform(-10.f, 10.f), uniform(-2.f, 5.f));
+    Vec3 b(uniform(-10.f, 10.f), uniform(-10.f, 10.f), uniform(-2.f, 5.f));
+    switch (i % 8) {  // degenerate and axis-aligned cases, voxel-boundary end points
+      case 1:
+        b = a;
+        break;
+      case 2:
+        b.y() = a.y();
+        b.z() = a.z();
+        break;
+      case 3:
+        b.z() = a.z();
+        break;
+      case 4:
+        a = (a * 10.f).array().round().matrix() * 0.1f;
+        break;
+      case 5:
+        b = a + Vec3(uniform(-0.3f, 0.3f), uniform(-0.3f, 0.3f), uniform(-0.3f, 0.3f));
+        break;
+      case 6:
+        a.z() = 1.05f;
+        b.z() = 1.05f;
+        break;
+      default:
+        break;
+    }
+    Vec3 want(0, 0, 0), got(-1, -1, -1);
+    const bool w = reference_first_occupied(*map, a, b, &want);
+    const bool g = map->first_occupied_on_segment(a, b, &got);
+    ASSERT_EQ(g, w) << "segment " << i << ": " << a.transpose() << " -> " << b.transpose();
+    if (w) {
+      ASSERT_EQ(got, want) << "segment " << i;
+      ++hits;
+    }
+    ++checked;
+  }
+  std::printf("[ segments ] %zu of %zu hit\n", hits, checked);
+  EXPECT_GT(hits, checked / 10);
+  EXPECT_LT(hits, checked - checked / 10);
+}
+
 }  // namespace
 }  // namespace dynamap

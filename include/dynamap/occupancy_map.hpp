@@ -154,7 +154,10 @@ class OccupancyMap {
   struct Block {
     std::array<Voxel, kBlockVoxels> voxels;
     std::array<std::int32_t, 3> index;  ///< block coordinates (voxel index >> kBlockBits)
-    std::uint64_t last_frame;           ///< frames_ value when last touched by integrate()
+    /// Occupied voxels in the block, kept exact on every log-odds change, so the segment query
+    /// can step over a block without any occupied voxel in one go.
+    std::uint16_t occupied;
+    std::uint64_t last_frame;  ///< frames_ value when last touched by integrate()
   };
 
   struct EvictionCandidate {
@@ -320,7 +323,8 @@ std::size_t OccupancyMap::clear_box(const Box3& box, std::size_t max_voxels, F&&
   return scan_box(box, max_voxels, [&](const Block* block, std::size_t li, const IndexVec& idx) {
     // scan_box is const; the block lives in our own pool, so writing through it is sound.
     Block* mutable_block = &pool_[static_cast<std::size_t>(block - pool_.data())];
-    mutable_block->voxels[li].log_odds = q_min_;
+    mutable_block->voxels[li].log_odds = q_min_;  // q_min_ <= q_occupied_ (init checks it)
+    --mutable_block->occupied;
     const Eigen::Vector3f c = center_of(idx);
     on_cleared(pack(idx[0], idx[1], idx[2]), c);
     return true;
