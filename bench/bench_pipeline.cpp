@@ -28,13 +28,13 @@ struct Sequence {
 Sequence make_sequence(const CameraIntrinsics& cam, int frames) {
   Sequence s;
   const std::vector<Box3> statics = {
-      Box3::from_center_size({6.f, 0.f, 1.5f}, {0.2f, 12.f, 3.f}),    // far wall
-      Box3::from_center_size({2.f, 4.f, 1.5f}, {10.f, 0.2f, 3.f}),    // left wall
-      Box3::from_center_size({2.f, -4.f, 1.5f}, {10.f, 0.2f, 3.f}),   // right wall
+      Box3::from_center_size({6.f, 0.f, 1.5f}, {0.2f, 12.f, 3.f}),     // far wall
+      Box3::from_center_size({2.f, 4.f, 1.5f}, {10.f, 0.2f, 3.f}),     // left wall
+      Box3::from_center_size({2.f, -4.f, 1.5f}, {10.f, 0.2f, 3.f}),    // right wall
       Box3::from_center_size({3.5f, 2.2f, 0.4f}, {0.8f, 0.8f, 0.8f}),  // boxes
       Box3::from_center_size({4.5f, -2.5f, 0.5f}, {1.0f, 0.6f, 1.0f}),
       Box3::from_center_size({2.8f, -1.0f, 1.5f}, {0.3f, 0.3f, 3.0f}),  // pillar
-      test::person_at(5.0f, 1.0f),                                       // standing person
+      test::person_at(5.0f, 1.0f),                                      // standing person
   };
   test::WorldScene scene;
   s.images.resize(static_cast<std::size_t>(frames));
@@ -42,7 +42,8 @@ Sequence make_sequence(const CameraIntrinsics& cam, int frames) {
     const float t = static_cast<float>(i) / 30.f;
     scene.boxes = statics;
     scene.boxes.push_back(test::person_at(3.0f, -2.5f + std::fmod(1.0f * t, 5.f)));
-    scene.boxes.push_back(test::person_at(4.0f + 0.8f * std::sin(0.5f * t), 2.5f - std::fmod(0.8f * t, 5.f)));
+    scene.boxes.push_back(
+        test::person_at(4.0f + 0.8f * std::sin(0.5f * t), 2.5f - std::fmod(0.8f * t, 5.f)));
     scene.boxes.push_back(test::person_at(2.2f + std::fmod(0.6f * t, 3.f), 1.2f));
     scene.boxes.push_back(test::person_at(5.2f - std::fmod(0.7f * t, 3.f), -0.5f));
     const Pose pose = test::level_camera(Eigen::Vector3f(0.3f * std::sin(0.2f * t), 0.f, 1.3f),
@@ -53,7 +54,9 @@ Sequence make_sequence(const CameraIntrinsics& cam, int frames) {
   return s;
 }
 
-double ms(std::uint64_t ns) { return static_cast<double>(ns) * 1e-6; }
+double ms(std::uint64_t ns) {
+  return static_cast<double>(ns) * 1e-6;
+}
 
 }  // namespace
 
@@ -110,13 +113,15 @@ int main(int argc, char** argv) {
 
   // Worst-case frames: every pixel at max range (rays), and clutter (detections, a full
   // tracker). Each is timed 30 times on a warm pipeline; the median is reported.
-  std::vector<std::uint16_t> px(static_cast<std::size_t>(config.camera.width * config.camera.height));
+  std::vector<std::uint16_t> px(
+      static_cast<std::size_t>(config.camera.width * config.camera.height));
   std::printf("\nWorst-case frames (median of 30, ms): \n");
   for (WorstCase kind : {WorstCase::kMaxRange, WorstCase::kClutter}) {
     if (!ok(pipeline->init(config))) return 1;
     Frame f;
     f.T_map_camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.3f));
-    f.depth = make_worst_case_depth(kind, config.camera, config.map.max_depth, kMaxDetections, px.data());
+    f.depth =
+        make_worst_case_depth(kind, config.camera, config.map.max_depth, kMaxDetections, px.data());
     std::vector<std::uint64_t> t;
     std::size_t max_tracks = 0;
     for (int i = 0; i < 30; ++i) {
@@ -126,10 +131,11 @@ int main(int argc, char** argv) {
       max_tracks = std::max(max_tracks, out->num_obstacles);
     }
     const double w = ms(pct(t, 0.5));
-    std::printf("  %-9s total %.3f ms = %.2fx the sequence median (rays %zu, detections %zu, "
-                "tracks %zu)\n",
-                kind == WorstCase::kMaxRange ? "max-range" : "clutter", w, w / total_med,
-                out->work.rays, out->work.detections, max_tracks);
+    std::printf(
+        "  %-9s total %.3f ms = %.2fx the sequence median (rays %zu, detections %zu, "
+        "tracks %zu)\n",
+        kind == WorstCase::kMaxRange ? "max-range" : "clutter", w, w / total_med, out->work.rays,
+        out->work.detections, max_tracks);
   }
   std::printf("\nfootprint: %.1f MiB (Pipeline::memory_bytes)\n",
               static_cast<double>(Pipeline::memory_bytes()) / (1024.0 * 1024.0));

@@ -13,13 +13,16 @@
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 60;
-  const std::uint64_t period_ns = (argc > 2 ? std::strtoull(argv[2], nullptr, 10) : 33) * 1000000ULL;
-  const std::uint64_t budget_ns = (argc > 3 ? std::strtoull(argv[3], nullptr, 10) : 10) * 1000000ULL;
+  const std::uint64_t period_ns =
+      (argc > 2 ? std::strtoull(argv[2], nullptr, 10) : 33) * 1000000ULL;
+  const std::uint64_t budget_ns =
+      (argc > 3 ? std::strtoull(argv[3], nullptr, 10) : 10) * 1000000ULL;
 
   // Start-up (not real-time): take all memory now.
   auto pipeline = std::make_unique<dynamap::Pipeline>();
   auto output = std::make_unique<dynamap::FrameOutput>();
-  auto depth = std::make_unique<std::uint16_t[]>(dynamap::kMaxImageWidth * dynamap::kMaxImageHeight);
+  auto depth =
+      std::make_unique<std::uint16_t[]>(dynamap::kMaxImageWidth * dynamap::kMaxImageHeight);
   dynamap::PipelineConfig config;
   config.budgets.frame_ns = budget_ns;
   if (!dynamap::ok(pipeline->init(config))) return 1;
@@ -44,11 +47,11 @@ int main(int argc, char** argv) {
     next += period_ns;
   }
   const auto& t = pipeline->frame_stats();
-  std::printf("%d frames at %.1f Hz: median %.2f ms, p99 %.2f ms, max %.2f ms; "
-              "%llu over the %.1f ms budget, %d late\n",
-              frames, 1e9 / static_cast<double>(period_ns), static_cast<double>(t.p50_ns()) * 1e-6,
-              static_cast<double>(t.p99_ns()) * 1e-6, static_cast<double>(t.max_ns()) * 1e-6,
-              static_cast<unsigned long long>(t.overruns()), static_cast<double>(budget_ns) * 1e-6,
-              late);
+  std::printf(
+      "%d frames at %.1f Hz: median %.2f ms, p99 %.2f ms, max %.2f ms; "
+      "%llu over the %.1f ms budget, %d late\n",
+      frames, 1e9 / static_cast<double>(period_ns), static_cast<double>(t.p50_ns()) * 1e-6,
+      static_cast<double>(t.p99_ns()) * 1e-6, static_cast<double>(t.max_ns()) * 1e-6,
+      static_cast<unsigned long long>(t.overruns()), static_cast<double>(budget_ns) * 1e-6, late);
   return 0;
 }

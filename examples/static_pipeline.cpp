@@ -8,8 +8,8 @@
 #include "dynamap/worst_case.hpp"
 
 namespace {
-dynamap::Pipeline g_pipeline;       // ~tens of MB in .bss; see memory_bytes()
-dynamap::FrameOutput g_output;      // fixed-size output, reused every frame
+dynamap::Pipeline g_pipeline;   // ~tens of MB in .bss; see memory_bytes()
+dynamap::FrameOutput g_output;  // fixed-size output, reused every frame
 std::uint16_t g_depth[dynamap::kMaxImageWidth * dynamap::kMaxImageHeight];
 }  // namespace
 

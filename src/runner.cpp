@@ -55,7 +55,9 @@ RunnerCounters Runner::counters() const noexcept {
   return c;
 }
 
-void Runner::worker_entry(void* self) noexcept { static_cast<Runner*>(self)->worker_loop(); }
+void Runner::worker_entry(void* self) noexcept {
+  static_cast<Runner*>(self)->worker_loop();
+}
 
 void Runner::worker_loop() noexcept {
   for (;;) {

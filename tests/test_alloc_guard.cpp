@@ -11,7 +11,9 @@ namespace dynamap {
 namespace {
 
 // Makes a pointer escape so the optimiser cannot elide a new/delete pair (clang does).
-void escape(void* p) { asm volatile("" : : "r"(p) : "memory"); }
+void escape(void* p) {
+  asm volatile("" : : "r"(p) : "memory");
+}
 
 TEST(AllocationGuard, CatchesVectorGrowth) {
   std::vector<int> v;

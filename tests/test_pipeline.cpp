@@ -32,14 +32,14 @@ struct WalkerScenario {
   test::WorldScene scene;
   Pose camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.2f));
   std::vector<std::uint16_t> pixels;
-  const Box3 crate = Box3::from_center_size(Eigen::Vector3f(4.0f, 1.0f, 0.4f),
-                                            Eigen::Vector3f(0.6f, 0.6f, 0.8f));
-  const Box3 wall = Box3::from_center_size(Eigen::Vector3f(4.6f, 0.f, 1.5f),
-                                           Eigen::Vector3f(0.2f, 10.f, 3.f));
+  const Box3 crate =
+      Box3::from_center_size(Eigen::Vector3f(4.0f, 1.0f, 0.4f), Eigen::Vector3f(0.6f, 0.6f, 0.8f));
+  const Box3 wall =
+      Box3::from_center_size(Eigen::Vector3f(4.6f, 0.f, 1.5f), Eigen::Vector3f(0.2f, 10.f, 3.f));
 
   Eigen::Vector2f walker_xy(int frame) const {
-    return Eigen::Vector2f(3.0f, -1.2f + 1.0f * static_cast<float>(frame) * 1e-9f *
-                                           static_cast<float>(kFrameNs));
+    return Eigen::Vector2f(
+        3.0f, -1.2f + 1.0f * static_cast<float>(frame) * 1e-9f * static_cast<float>(kFrameNs));
   }
   Frame frame(int i, const CameraIntrinsics& cam) {
     scene.boxes = {wall, crate};
@@ -63,9 +63,9 @@ std::uint64_t run_walker_trace(const PipelineConfig& cfg, std::vector<float>& tr
     EXPECT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
     for (std::size_t k = 0; k < out->num_obstacles; ++k) {
       const TrackedObstacle& o = out->obstacles[k];
-      trace.insert(trace.end(), {static_cast<float>(o.id), o.box.min.x(), o.box.min.y(),
-                                 o.box.max.z(), o.velocity.x(), o.velocity.y(),
-                                 o.dynamic ? 1.f : 0.f});
+      trace.insert(trace.end(),
+                   {static_cast<float>(o.id), o.box.min.x(), o.box.min.y(), o.box.max.z(),
+                    o.velocity.x(), o.velocity.y(), o.dynamic ? 1.f : 0.f});
     }
     for (std::size_t k = 0; k < out->num_predictions; ++k) {
       const PathPrediction& pr = out->predictions[k];
@@ -294,7 +294,9 @@ TEST(Pipeline, FastAndScalarHistogramKernelsGiveIdenticalOutputs) {
 // A fake clock that advances a fixed step at every read makes the budget logic deterministic.
 std::uint64_t g_fake_now = 0;
 std::uint64_t g_fake_step = 0;
-std::uint64_t fake_clock() { return g_fake_now += g_fake_step; }
+std::uint64_t fake_clock() {
+  return g_fake_now += g_fake_step;
+}
 
 TEST(PipelineBudget, OverrunsAreCountedPerStageAndPerFrame) {
   auto p = std::make_unique<Pipeline>();
@@ -348,7 +350,8 @@ TEST(PipelineWorstCase, WorkCountersStopAtTheirCaps) {
   std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height));
   Frame f;
   f.T_map_camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.2f));
-  f.depth = make_worst_case_depth(WorstCase::kMaxRange, cfg.camera, cfg.map.max_depth, 0, px.data());
+  f.depth =
+      make_worst_case_depth(WorstCase::kMaxRange, cfg.camera, cfg.map.max_depth, 0, px.data());
   f.stamp = kFrameNs;
   ASSERT_EQ(p->process(f, *out), Status::kOk);
   EXPECT_EQ(out->work.rays, 1000u);

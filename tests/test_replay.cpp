@@ -56,8 +56,8 @@ TEST(Replay, RunsEndToEndAndTheMetricsShowAWorkingTracker) {
   const RunResult r = run_replay(corridor_sequence() + " --out " + out + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("120 processed"), std::string::npos) << r.output;
-  for (const char* f : {"tracks.csv", "predictions.csv", "predictions_linear.csv", "timing.csv",
-                        "topview.png"}) {
+  for (const char* f :
+       {"tracks.csv", "predictions.csv", "predictions_linear.csv", "timing.csv", "topview.png"}) {
     EXPECT_TRUE(file_exists(join_path(out, f))) << f;
   }
   const eval::EvalResult m = eval::evaluate(corridor_sequence(), out);
@@ -133,8 +133,8 @@ TEST(Replay, NonSixteenBitPngNamesTheFile) {
 TEST(Replay, UnknownParameterKeyNamesFileLineAndKey) {
   const std::string params = ::testing::TempDir() + "bad_params.yaml";
   std::ofstream(params) << "map:\n  resolution: 0.1\n  resolutoin: 0.2\n";
-  const RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("p_out") +
-                                 " --params " + params);
+  const RunResult r =
+      run_replay(corridor_sequence() + " --out " + fresh_dir("p_out") + " --params " + params);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find(params + ":3"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("map.resolutoin"), std::string::npos) << r.output;
@@ -143,8 +143,8 @@ TEST(Replay, UnknownParameterKeyNamesFileLineAndKey) {
 TEST(Replay, BadParameterValueIsRefused) {
   const std::string params = ::testing::TempDir() + "bad_value.yaml";
   std::ofstream(params) << "tracker:\n  overlap_threshold: 3.5\n";
-  const RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("v_out") +
-                                 " --params " + params);
+  const RunResult r =
+      run_replay(corridor_sequence() + " --out " + fresh_dir("v_out") + " --params " + params);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("tracker.overlap_threshold"), std::string::npos) << r.output;
 }

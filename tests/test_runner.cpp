@@ -50,7 +50,8 @@ TEST(Runner, FullRingRejectsAndCountsWithoutBlocking) {
   const PipelineConfig cfg = tiny_config();
   ASSERT_EQ(p->init(cfg), Status::kOk);
   auto r = std::make_unique<Runner>(*p);  // not started: nothing drains the ring
-  std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height), 2000);
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height),
+                                2000);
   Frame f;
   f.depth = DepthView{px.data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2};
   for (std::size_t i = 0; i < kRunnerInputSlots; ++i) {
@@ -84,9 +85,9 @@ TEST(Runner, ThreeThreadStressLosesNothingButCountedRejections) {
     std::vector<std::vector<std::uint16_t>> images(64);
     std::vector<Pose> poses(64);
     for (std::size_t k = 0; k < images.size(); ++k) {
-      scene.boxes = {test::person_at(2.5f, -1.f + 0.03f * static_cast<float>(k)),
-                     Box3::from_center_size(Eigen::Vector3f(4.f, 0.f, 1.5f),
-                                            Eigen::Vector3f(0.2f, 8.f, 3.f))};
+      scene.boxes = {
+          test::person_at(2.5f, -1.f + 0.03f * static_cast<float>(k)),
+          Box3::from_center_size(Eigen::Vector3f(4.f, 0.f, 1.5f), Eigen::Vector3f(0.2f, 8.f, 3.f))};
       poses[k] = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.2f));
       (void)test::render(scene, cfg.camera, poses[k], images[k]);
     }
@@ -96,8 +97,8 @@ TEST(Runner, ThreeThreadStressLosesNothingButCountedRejections) {
       Frame f;
       f.stamp = static_cast<Stamp>(i + 1) * 1'000'000ULL;
       f.T_map_camera = poses[k];
-      f.depth = DepthView{images[k].data(), cfg.camera.width, cfg.camera.height,
-                          cfg.camera.width * 2};
+      f.depth =
+          DepthView{images[k].data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2};
       if (ok(r->submit(f))) {
         ++accepted;
       } else {

@@ -9,11 +9,19 @@ namespace dynamap {
 namespace {
 
 TEST(Status, EveryValueHasADistinctName) {
-  const Status all[] = {Status::kOk,          Status::kInvalidArgument,  Status::kNullData,
-                        Status::kWrongSize,   Status::kNonFinite,        Status::kNonUnitQuaternion,
-                        Status::kTimeNotIncreasing, Status::kCapacityExceeded,
-                        Status::kNotInitialized,    Status::kPermissionDenied,
-                        Status::kUnsupported, Status::kSystemError,      Status::kEmpty};
+  const Status all[] = {Status::kOk,
+                        Status::kInvalidArgument,
+                        Status::kNullData,
+                        Status::kWrongSize,
+                        Status::kNonFinite,
+                        Status::kNonUnitQuaternion,
+                        Status::kTimeNotIncreasing,
+                        Status::kCapacityExceeded,
+                        Status::kNotInitialized,
+                        Status::kPermissionDenied,
+                        Status::kUnsupported,
+                        Status::kSystemError,
+                        Status::kEmpty};
   for (Status a : all) {
     EXPECT_STRNE(to_string(a), "unknown");
     for (Status b : all) {

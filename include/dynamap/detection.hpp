@@ -7,9 +7,9 @@
 namespace dynamap {
 
 struct Detection {
-  Box3 box;            ///< axis-aligned box in the map frame (refined when `refined`)
-  Box3 raw_box;        ///< the detector's box before refinement (map frame)
-  ImageBox image_box;  ///< where it was seen in the depth image (for the "fully in view" test)
+  Box3 box;                ///< axis-aligned box in the map frame (refined when `refined`)
+  Box3 raw_box;            ///< the detector's box before refinement (map frame)
+  ImageBox image_box;      ///< where it was seen in the depth image (for the "fully in view" test)
   float near_depth = 0.f;  ///< camera-frame depth of the nearest surface (metres)
   bool refined = false;    ///< true when `box` was tightened to occupied voxels
 };

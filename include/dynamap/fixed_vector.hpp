@@ -1,5 +1,6 @@
 // FixedVector: a vector with inline storage of N elements and no heap, ever.
-// push_back reports "full" instead of growing; element storage is value-initialised at construction.
+// push_back reports "full" instead of growing; element storage is value-initialised at
+// construction.
 #pragma once
 
 #include <array>

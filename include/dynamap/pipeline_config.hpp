@@ -37,8 +37,8 @@ struct BudgetConfig {
   std::array<std::uint64_t, kStageCount> stage_ns{};  ///< per-stage budgets (0 = none)
   std::uint64_t frame_ns = 0;                         ///< whole-frame budget (0 = none)
   bool adaptive_stride = false;
-  int max_pixel_stride = 8;        ///< coarsest stride the adaptive mode may use
-  float restore_fraction = 0.5f;   ///< restore a finer stride when below this share of budget
+  int max_pixel_stride = 8;       ///< coarsest stride the adaptive mode may use
+  float restore_fraction = 0.5f;  ///< restore a finer stride when below this share of budget
 };
 
 /// Everything the pipeline needs. Default-constructed, it is the documented configuration for a
@@ -51,7 +51,8 @@ struct PipelineConfig {
   TrackerConfig tracker{};
   DynamicRegionCleanerConfig cleaner{};
   MarkovPredictorConfig predictor{};
-  Stamp clean_history_max_age_ns = 3'000'000'000ULL;  ///< cleaned voxels count as occupied this long
+  Stamp clean_history_max_age_ns =
+      3'000'000'000ULL;             ///< cleaned voxels count as occupied this long
   bool run_linear_baseline = true;  ///< also run the constant-velocity predictor (evaluation)
   float ground_height = 0.0f;       ///< map-frame z of the floor (m)
   BudgetConfig budgets{};

@@ -11,9 +11,9 @@
 namespace dynamap {
 
 enum class WorstCase : std::uint8_t {
-  kMaxRange,   ///< every pixel valid just inside the maximum range: most rays, longest rays
-  kClutter,    ///< `obstacles` narrow bars at alternating depths over a max-range background:
-               ///< most detections and tracks, plus long rays everywhere else
+  kMaxRange,  ///< every pixel valid just inside the maximum range: most rays, longest rays
+  kClutter,   ///< `obstacles` narrow bars at alternating depths over a max-range background:
+              ///< most detections and tracks, plus long rays everywhere else
 };
 
 /// Fills `pixels` (cam.width x cam.height, tightly packed) with the worst case `kind` and

@@ -29,14 +29,18 @@ std::uint64_t monotonic_ns() noexcept {
   // Split to avoid overflowing 64 bits in c * 1e9.
   return (c / freq) * 1000000000ULL + ((c % freq) * 1000000000ULL) / freq;
 }
-const char* clock_source() noexcept { return "cntvct_el0"; }
+const char* clock_source() noexcept {
+  return "cntvct_el0";
+}
 #else
 std::uint64_t monotonic_ns() noexcept {
   return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
                                         std::chrono::steady_clock::now().time_since_epoch())
                                         .count());
 }
-const char* clock_source() noexcept { return "steady_clock"; }
+const char* clock_source() noexcept {
+  return "steady_clock";
+}
 #endif
 
 }  // namespace dynamap::platform

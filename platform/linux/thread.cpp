@@ -11,12 +11,17 @@ namespace dynamap::platform {
 namespace {
 Status from_errno(int err) noexcept {
   switch (err) {
-    case 0: return Status::kOk;
+    case 0:
+      return Status::kOk;
     case EPERM:
-    case EACCES: return Status::kPermissionDenied;
-    case EINVAL: return Status::kInvalidArgument;
-    case ENOSYS: return Status::kUnsupported;
-    default: return Status::kSystemError;
+    case EACCES:
+      return Status::kPermissionDenied;
+    case EINVAL:
+      return Status::kInvalidArgument;
+    case ENOSYS:
+      return Status::kUnsupported;
+    default:
+      return Status::kSystemError;
   }
 }
 }  // namespace

@@ -12,13 +12,18 @@ namespace {
 
 Status from_errno(int err) noexcept {
   switch (err) {
-    case 0: return Status::kOk;
+    case 0:
+      return Status::kOk;
     case EPERM:
-    case EACCES: return Status::kPermissionDenied;
-    case EINVAL: return Status::kInvalidArgument;
+    case EACCES:
+      return Status::kPermissionDenied;
+    case EINVAL:
+      return Status::kInvalidArgument;
     case ENOSYS:
-    case ENOTSUP: return Status::kUnsupported;
-    default: return Status::kSystemError;
+    case ENOTSUP:
+      return Status::kUnsupported;
+    default:
+      return Status::kSystemError;
   }
 }
 
@@ -26,15 +31,16 @@ Status from_errno(int err) noexcept {
 
 static_assert(sizeof(unsigned long) >= sizeof(pthread_t), "pthread_t must fit the handle");
 
-WorkerThread::~WorkerThread() { (void)join(); }
+WorkerThread::~WorkerThread() {
+  (void)join();
+}
 
 Status WorkerThread::start(Entry entry, void* arg, const ThreadOptions& options) noexcept {
   if (started_) return Status::kInvalidArgument;
   if (entry == nullptr) return Status::kNullData;
   if (options.cpu < -1 || options.cpu >= CPU_SETSIZE) return Status::kInvalidArgument;
-  if (options.fifo_priority != 0 &&
-      (options.fifo_priority < sched_get_priority_min(SCHED_FIFO) ||
-       options.fifo_priority > sched_get_priority_max(SCHED_FIFO))) {
+  if (options.fifo_priority != 0 && (options.fifo_priority < sched_get_priority_min(SCHED_FIFO) ||
+                                     options.fifo_priority > sched_get_priority_max(SCHED_FIFO))) {
     return Status::kInvalidArgument;
   }
 

@@ -84,18 +84,34 @@ void* operator new(std::size_t n, std::align_val_t a) {
   if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
   std::abort();  // tests never run out of memory; works with -fno-exceptions too
 }
-void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
+void* operator new[](std::size_t n, std::align_val_t a) {
+  return operator new(n, a);
+}
 void operator delete(void* p) noexcept {
   if (p) COUNT_DELETE();
   std::free(p);
 }
-void operator delete[](void* p) noexcept { operator delete(p); }
-void operator delete(void* p, std::size_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::size_t) noexcept { operator delete(p); }
-void operator delete(void* p, std::align_val_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { operator delete(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { operator delete(p); }
+void operator delete[](void* p) noexcept {
+  operator delete(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  operator delete(p);
+}
+void operator delete[](void* p, std::size_t) noexcept {
+  operator delete(p);
+}
+void operator delete(void* p, std::align_val_t) noexcept {
+  operator delete(p);
+}
+void operator delete[](void* p, std::align_val_t) noexcept {
+  operator delete(p);
+}
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept {
+  operator delete(p);
+}
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept {
+  operator delete(p);
+}
 
 namespace dynamap::test {
 
@@ -103,9 +119,15 @@ AllocationGuard::AllocationGuard() noexcept
     : start_alloc_(t_allocs), start_free_(t_frees), outer_active_(t_active) {
   t_active = true;
 }
-AllocationGuard::~AllocationGuard() { t_active = outer_active_; }
-std::size_t AllocationGuard::allocations() const noexcept { return t_allocs - start_alloc_; }
-std::size_t AllocationGuard::deallocations() const noexcept { return t_frees - start_free_; }
+AllocationGuard::~AllocationGuard() {
+  t_active = outer_active_;
+}
+std::size_t AllocationGuard::allocations() const noexcept {
+  return t_allocs - start_alloc_;
+}
+std::size_t AllocationGuard::deallocations() const noexcept {
+  return t_frees - start_free_;
+}
 
 bool malloc_is_counted() noexcept {
 #ifdef DYNAMAP_MALLOC_COUNTED

@@ -22,7 +22,8 @@ struct WorldScene {
 
 /// Camera at `position` looking horizontally along map direction `yaw` (radians from +x).
 inline Pose level_camera(const Eigen::Vector3f& position, float yaw = 0.f) {
-  Eigen::Matrix3f optical_to_level;  // optical (x right, y down, z fwd) -> map (x fwd, y left, z up)
+  Eigen::Matrix3f
+      optical_to_level;  // optical (x right, y down, z fwd) -> map (x fwd, y left, z up)
   optical_to_level << 0.f, 0.f, 1.f, -1.f, 0.f, 0.f, 0.f, -1.f, 0.f;
   Pose p;
   p.translation = position;

@@ -48,7 +48,8 @@ void read_timing(const std::string& path, std::vector<std::string>& names,
   }
   for (std::size_t i = 1; i < lines.size(); ++i) {
     const std::vector<std::string> f = split_csv(lines[i]);
-    if (f.size() != header.size()) throw ToolError(path + ":" + std::to_string(i + 1) + ": wrong column count");
+    if (f.size() != header.size())
+      throw ToolError(path + ":" + std::to_string(i + 1) + ": wrong column count");
     for (std::size_t k = 0; k < names.size(); ++k) {
       columns[k].push_back(parse_double(f[k + 1], TextLocation{path, i + 1}, names[k].c_str()));
     }
@@ -59,7 +60,8 @@ void read_timing(const std::string& path, std::vector<std::string>& names,
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: dynamap-tables ROOT SCENE...  (expects ROOT/SCENE and ROOT/SCENE_out)\n");
+    std::fprintf(stderr,
+                 "usage: dynamap-tables ROOT SCENE...  (expects ROOT/SCENE and ROOT/SCENE_out)\n");
     return 2;
   }
   try {
@@ -69,7 +71,8 @@ int main(int argc, char** argv) {
     std::vector<std::vector<double>> stage_us;
     t1 << "### Table I: tracking accuracy per scene (dynamic obstacles, DATA_FORMAT.md metrics)\n\n"
        << "| scene | GT obstacle-frames | position error (m) | velocity error (m/s) | recall | "
-          "precision | MOTA | ID switches | dynamic rows |\n|---|---|---|---|---|---|---|---|---|\n";
+          "precision | MOTA | ID switches | dynamic rows "
+          "|\n|---|---|---|---|---|---|---|---|---|\n";
     t3 << "### Prediction failure ratio (chosen path collides with the true static world, or no "
           "path is free)\n\n| scene | predictions | Markov | linear baseline | Markov / linear |\n"
           "|---|---|---|---|---|\n";

@@ -320,13 +320,14 @@ int run(const Options& o) {
       const TrackedObstacle& ob = out->obstacles[k];
       int path = -1;
       for (std::size_t j = 0; j < out->num_predictions; ++j) {
-        if (out->predictions[j].track_id == ob.id) path = static_cast<int>(out->predictions[j].chosen);
+        if (out->predictions[j].track_id == ob.id)
+          path = static_cast<int>(out->predictions[j].chosen);
       }
       const Eigen::Vector3f c = ob.box.center(), sz = ob.box.size();
-      tracks << sf.stamp_text << "," << ob.id << "," << c.x() << "," << c.y() << "," << c.z()
-             << "," << ob.velocity.x() << "," << ob.velocity.y() << "," << ob.velocity.z() << ","
-             << sz.x() << "," << sz.y() << "," << sz.z() << "," << (ob.dynamic ? 1 : 0) << ","
-             << path << "\n";
+      tracks << sf.stamp_text << "," << ob.id << "," << c.x() << "," << c.y() << "," << c.z() << ","
+             << ob.velocity.x() << "," << ob.velocity.y() << "," << ob.velocity.z() << "," << sz.x()
+             << "," << sz.y() << "," << sz.z() << "," << (ob.dynamic ? 1 : 0) << "," << path
+             << "\n";
       ids.insert(ob.id);
       if (ob.dynamic) {
         dynamic_ids.insert(ob.id);
@@ -335,18 +336,21 @@ int run(const Options& o) {
     }
     for (std::size_t j = 0; j < out->num_predictions; ++j) {
       write_predictions(preds, sf.stamp_text, out->predictions[j]);
-      if (config.run_linear_baseline) write_predictions(linear, sf.stamp_text, out->linear_predictions[j]);
+      if (config.run_linear_baseline)
+        write_predictions(linear, sf.stamp_text, out->linear_predictions[j]);
     }
     timing << sf.stamp_text;
-    for (std::size_t k = 0; k < kStageCount; ++k) timing << "," << 1e-3 * static_cast<double>(out->stage_ns[k]);
+    for (std::size_t k = 0; k < kStageCount; ++k)
+      timing << "," << 1e-3 * static_cast<double>(out->stage_ns[k]);
     timing << "," << 1e-3 * static_cast<double>(out->total_ns) << "\n";
 
     if (o.picture_every > 0 && i % static_cast<std::size_t>(o.picture_every) == 0) {
       char name[64];
       std::snprintf(name, sizeof(name), "frames/frame_%05zu.png", i);
-      render_top_view(build_scene(*pipeline, *out, ps, world.get(), truth, sf.stamp, last_pose,
-                                  cam, "dynamap  " + o.seq, "frame " + std::to_string(i) + "  t = " + sf.stamp_text),
-                      join_path(o.out, name));
+      render_top_view(
+          build_scene(*pipeline, *out, ps, world.get(), truth, sf.stamp, last_pose, cam,
+                      "dynamap  " + o.seq, "frame " + std::to_string(i) + "  t = " + sf.stamp_text),
+          join_path(o.out, name));
       ++pictures;
     }
     const double now = wall_seconds();
@@ -380,18 +384,20 @@ int run(const Options& o) {
               percentile_ms(process_ms, 0.99), percentile_ms(process_ms, 1.0));
   std::printf("    %-16s %9.3f %7.3f %7.3f\n", "png decode", percentile_ms(decode_ms, 0.5),
               percentile_ms(decode_ms, 0.99), percentile_ms(decode_ms, 1.0));
-  std::printf("  counters: rays dropped %llu, blocks evicted %llu, detections dropped %llu, "
-              "tracks refused %llu, frames rejected %llu\n",
-              static_cast<unsigned long long>(c.rays_dropped),
-              static_cast<unsigned long long>(c.blocks_evicted),
-              static_cast<unsigned long long>(c.detections_dropped),
-              static_cast<unsigned long long>(c.tracks_refused),
-              static_cast<unsigned long long>(c.frames_rejected));
+  std::printf(
+      "  counters: rays dropped %llu, blocks evicted %llu, detections dropped %llu, "
+      "tracks refused %llu, frames rejected %llu\n",
+      static_cast<unsigned long long>(c.rays_dropped),
+      static_cast<unsigned long long>(c.blocks_evicted),
+      static_cast<unsigned long long>(c.detections_dropped),
+      static_cast<unsigned long long>(c.tracks_refused),
+      static_cast<unsigned long long>(c.frames_rejected));
   std::printf("  wall time %.2f s (%.1f frames/s incl. PNG decode and output)\n", elapsed,
               static_cast<double>(n) / std::max(1e-9, elapsed));
-  std::printf("  wrote tracks.csv, predictions.csv, predictions_linear.csv, timing.csv, "
-              "topview.png%s\n",
-              pictures > 0 ? (", " + std::to_string(pictures) + " pictures in frames/").c_str() : "");
+  std::printf(
+      "  wrote tracks.csv, predictions.csv, predictions_linear.csv, timing.csv, "
+      "topview.png%s\n",
+      pictures > 0 ? (", " + std::to_string(pictures) + " pictures in frames/").c_str() : "");
   return 0;
 }
 
