@@ -12,23 +12,35 @@ std::uint16_t to_units(float metres, const CameraIntrinsics& cam) noexcept {
 }  // namespace
 
 DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, float max_depth_m,
-                                std::size_t obstacles, std::uint16_t* pixels) noexcept {
+                                std::size_t obstacles, std::uint16_t* pixels,
+                                unsigned phase) noexcept {
   const int w = cam.width;
   const int h = cam.height;
-  // Just inside the range so every ray is a full-length hit ray, not a truncated free ray.
-  const std::uint16_t far = to_units(max_depth_m * 0.98f, cam);
-  for (int i = 0; i < w * h; ++i) pixels[i] = far;
+  // Long hit rays (not truncated free rays), dithered by up to 1.5 m so that neighbouring
+  // pixels end in different voxels: the map cannot merge them, every sampled pixel costs a ray.
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const float dither = 0.1f * static_cast<float>((u * 7 + v * 13) % 16);
+      pixels[v * w + u] = to_units(max_depth_m * 0.98f - dither, cam);
+    }
+  }
 
   if (kind == WorstCase::kClutter && obstacles > 0) {
-    const std::size_t max_bars = static_cast<std::size_t>(std::max(1, w / 16));
+    // Bars of at least kMinBarPixels with gaps of a third of that.
+    const int min_pitch = kMinBarPixels + kMinBarPixels / 3;
+    const std::size_t max_bars =
+        static_cast<std::size_t>(std::max(1, (w - min_pitch / 2) / min_pitch));
     const std::size_t n = std::min(obstacles, max_bars);
-    const int pitch = w / static_cast<int>(n);
-    const int bar = std::max(8, pitch * 2 / 3);
+    const int pitch = (w - min_pitch / 2) / static_cast<int>(n);
+    const int bar = std::max(kMinBarPixels, pitch * 3 / 4);
+    // Odd phases move every bar about 1.8 m deeper: no bar can be associated with a track of
+    // the previous frame, so alternating phases fill the tracker.
+    const float base = (phase % 2 == 1) ? 2.9f : 1.1f;
     const int v0 = h / 5;
     const int v1 = h - h / 4;
     for (std::size_t b = 0; b < n; ++b) {
-      // Alternate near and far so neighbouring bars never share depth bins.
-      const float d = (b % 2 == 0 ? 1.2f : 2.6f) + 0.05f * static_cast<float>(b % 7);
+      // Neighbours alternate 0.5 m apart so they never share depth bins.
+      const float d = base + (b % 2 == 0 ? 0.f : 0.5f) + 0.03f * static_cast<float>(b % 7);
       const std::uint16_t z = to_units(d, cam);
       const int u0 = static_cast<int>(b) * pitch + (pitch - bar) / 2;
       for (int v = v0; v < v1; ++v) {

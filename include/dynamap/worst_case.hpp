@@ -18,8 +18,11 @@ enum class WorstCase : std::uint8_t {
 
 /// Fills `pixels` (cam.width x cam.height, tightly packed) with the worst case `kind` and
 /// returns a view of it. `max_depth_m` is the occupancy map's max range; `obstacles` is used by
-/// kClutter (capped so every bar stays at least 8 pixels wide).
+/// kClutter (capped so every bar stays at least kMinBarPixels wide, what the default detector
+/// needs to see a bar).
+inline constexpr int kMinBarPixels = 21;
 DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, float max_depth_m,
-                                std::size_t obstacles, std::uint16_t* pixels) noexcept;
+                                std::size_t obstacles, std::uint16_t* pixels,
+                                unsigned phase = 0) noexcept;
 
 }  // namespace dynamap

@@ -1,6 +1,7 @@
 #include "dynamap/platform/clock.hpp"
 
 #include <chrono>
+#include <ctime>
 
 namespace dynamap::platform {
 
@@ -42,5 +43,12 @@ const char* clock_source() noexcept {
   return "steady_clock";
 }
 #endif
+
+std::uint64_t thread_cpu_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ULL +
+         static_cast<std::uint64_t>(ts.tv_nsec);
+}
 
 }  // namespace dynamap::platform
