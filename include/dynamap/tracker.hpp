@@ -58,6 +58,9 @@ struct TrackerConfig {
   int image_width = 640;                ///< depth image size, for the "fully in view" test
   int image_height = 480;
   int image_margin = 5;  ///< pixels the image box must stay away from the border
+  /// Only detections whose nearest surface is at most this far (m) count towards size fixing:
+  /// far away the depth noise and lost edge pixels make boxes too small.
+  float size_fix_max_depth = 5.0f;
   /// Shift depth boxes away from the camera by half their missing depth (docs/tracker.md).
   bool correct_near_surface_bias = true;
 
@@ -131,6 +134,7 @@ class Tracker {
     Eigen::Vector3f size;      // estimated full size
     Eigen::Vector3f raw_size;  // the detection box's own size
     bool in_view;
+    bool near_enough;  // near enough for size fixing
   };
 
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,

@@ -105,6 +105,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.box_history_length),
       DYNAMAP_PARAM(tracker.size_fix_frames),
       DYNAMAP_PARAM(tracker.image_margin),
+      DYNAMAP_PARAM(tracker.size_fix_max_depth),
       DYNAMAP_PARAM(tracker.correct_near_surface_bias),
       DYNAMAP_PARAM(cleaner.frames),
       DYNAMAP_PARAM(cleaner.inflation),
