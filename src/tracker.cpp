@@ -31,7 +31,8 @@ Status TrackerConfig::validate() const noexcept {
   const bool good =
       std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
       std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
-      size_fix_max_depth > 0.f && history_length + 1 <= kMaxTrackHistory &&
+      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
+      noise_reference_depth >= 0.f && history_length + 1 <= kMaxTrackHistory &&
       continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
       box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 && image_width > 0 &&
       image_height > 0 && image_margin >= 0 && 2 * image_margin < image_width &&
@@ -126,7 +127,12 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   const Eigen::Vector2f xy = m.center.head<2>();
   const float dt = seconds_between(t.last_measured_stamp, stamp);
   const Eigen::Vector2f v_meas = (xy - t.last_measured) / dt;
-  (void)t.kf.update(Eigen::Vector4f(xy.x(), xy.y(), v_meas.x(), v_meas.y()));
+  float noise_scale = 1.f;
+  if (config_.noise_reference_depth > 0.f && det.near_depth > config_.noise_reference_depth) {
+    const float q = det.near_depth / config_.noise_reference_depth;
+    noise_scale = (q * q) * (q * q);
+  }
+  (void)t.kf.update(Eigen::Vector4f(xy.x(), xy.y(), v_meas.x(), v_meas.y()), noise_scale);
 
   t.last_measured = xy;
   t.last_measured_stamp = stamp;

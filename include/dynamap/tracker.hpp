@@ -61,6 +61,10 @@ struct TrackerConfig {
   /// Only detections whose nearest surface is at most this far (m) count towards size fixing:
   /// far away the depth noise and lost edge pixels make boxes too small.
   float size_fix_max_depth = 5.0f;
+  /// Stereo depth noise grows with depth squared: beyond this depth (m) the Kalman measurement
+  /// noise is scaled by (near_depth / noise_reference_depth)^4, so far, jittering boxes (a wall
+  /// piece 7 m away) do not gain a speed. 0 disables the scaling.
+  float noise_reference_depth = 3.0f;
   /// Shift depth boxes away from the camera by half their missing depth (docs/tracker.md).
   bool correct_near_surface_bias = true;
 
