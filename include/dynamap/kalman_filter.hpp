@@ -17,7 +17,7 @@ struct KalmanConfig {
   float p0_position = 0.3f;             ///< initial position variance (m^2)
   float p0_velocity = 1.0f;             ///< initial velocity variance ((m/s)^2): starts at v = 0
   float q_position = 1e-5f;             ///< position process noise per reference interval (m^2)
-  float q_velocity = 1e-2f;             ///< velocity process noise per reference interval ((m/s)^2)
+  float q_velocity = 5e-3f;             ///< velocity process noise per reference interval ((m/s)^2)
   float r_position = 2.5e-4f;           ///< position measurement variance (m^2), 1.6 cm std
   float r_velocity = 0.45f;             ///< velocity measurement variance: 2 σ^2 / dt^2 at 30 Hz
   float q_reference_dt = 1.0f / 30.0f;  ///< seconds that q_position / q_velocity refer to
