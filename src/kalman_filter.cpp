@@ -49,10 +49,12 @@ Status ConstantVelocityKalman::predict(float dt) noexcept {
   return Status::kOk;
 }
 
-Status ConstantVelocityKalman::update(const Eigen::Vector4f& z) noexcept {
+Status ConstantVelocityKalman::update(const Eigen::Vector4f& z, float noise_scale) noexcept {
   if (!z.allFinite()) return Status::kNonFinite;
+  if (!std::isfinite(noise_scale) || noise_scale <= 0.f) return Status::kInvalidArgument;
   Eigen::Matrix4f r = Eigen::Matrix4f::Zero();
   r.diagonal() << config_.r_position, config_.r_position, config_.r_velocity, config_.r_velocity;
+  r *= noise_scale;
   const Eigen::Matrix4f s = p_ + r;
   // K = P S^-1; S is symmetric positive definite, so solve with Cholesky (fixed size, no heap).
   const Eigen::Matrix4f k = s.llt().solve(p_).transpose();

@@ -110,8 +110,20 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
   }
 
   stats_.support_voxels += support;
+  Box3 refined{lo - Eigen::Vector3f::Constant(half), hi + Eigen::Vector3f::Constant(half)};
+  if (config_.tighten_only && support > 0) {
+    refined.min = refined.min.cwiseMax(d.raw_box.min);
+    refined.max = refined.max.cwiseMin(d.raw_box.max);
+    // Support beside but not overlapping the raw box on some axis: nothing to cut there.
+    for (int a = 0; a < 3; ++a) {
+      if (refined.min[a] > refined.max[a]) {
+        refined.min[a] = d.raw_box.min[a];
+        refined.max[a] = d.raw_box.max[a];
+      }
+    }
+  }
   if (support >= config_.min_support_voxels && support > 0) {
-    d.box = Box3{lo - Eigen::Vector3f::Constant(half), hi + Eigen::Vector3f::Constant(half)};
+    d.box = refined;
     d.refined = true;
     ++stats_.refined;
   } else {

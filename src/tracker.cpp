@@ -30,7 +30,9 @@ Status TrackerConfig::validate() const noexcept {
   if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
   const bool good =
       std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
-      std::isfinite(centre_gate) && centre_gate >= 0.f && history_length + 1 <= kMaxTrackHistory &&
+      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
+      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
+      noise_reference_depth >= 0.f && history_length + 1 <= kMaxTrackHistory &&
       continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
       box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 && image_width > 0 &&
       image_height > 0 && image_margin >= 0 && 2 * image_margin < image_width &&
@@ -70,6 +72,7 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
   m.center = det.box.center();
   m.raw_size = det.box.size();
   m.in_view = fully_in_view(det.image_box);
+  m.near_enough = det.near_depth <= config_.size_fix_max_depth;
   m.size = m.raw_size;
   if (fixed_size != nullptr) m.size = *fixed_size;
   if (config_.correct_near_surface_bias) {
@@ -112,8 +115,9 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.last_measured_stamp = stamp;
   t.z_center = m.center.z();
   t.size = m.size;
-  t.in_view_frames = m.in_view ? 1 : 0;
-  t.size_sum = m.in_view ? m.size : Eigen::Vector3f::Zero();
+  const bool counts = m.in_view && m.near_enough;
+  t.in_view_frames = counts ? 1 : 0;
+  t.size_sum = counts ? m.size : Eigen::Vector3f::Zero();
   if (t.in_view_frames >= config_.size_fix_frames) t.out.size_fixed = true;
 }
 
@@ -123,7 +127,12 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   const Eigen::Vector2f xy = m.center.head<2>();
   const float dt = seconds_between(t.last_measured_stamp, stamp);
   const Eigen::Vector2f v_meas = (xy - t.last_measured) / dt;
-  (void)t.kf.update(Eigen::Vector4f(xy.x(), xy.y(), v_meas.x(), v_meas.y()));
+  float noise_scale = 1.f;
+  if (config_.noise_reference_depth > 0.f && det.near_depth > config_.noise_reference_depth) {
+    const float q = det.near_depth / config_.noise_reference_depth;
+    noise_scale = (q * q) * (q * q);
+  }
+  (void)t.kf.update(Eigen::Vector4f(xy.x(), xy.y(), v_meas.x(), v_meas.y()), noise_scale);
 
   t.last_measured = xy;
   t.last_measured_stamp = stamp;
@@ -133,9 +142,11 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
 
   if (!t.out.size_fixed) {
     t.size = m.size;
-    if (m.in_view) {
+    if (m.in_view && m.near_enough) {
       ++t.in_view_frames;
       t.size_sum += m.size;
+    } else if (m.in_view) {
+      // Too far for a trustworthy size (lost edge pixels, depth noise): not counted.
     } else {
       // Clipped by the image border: the box may be cut, start counting again.
       t.in_view_frames = 0;

@@ -35,7 +35,10 @@ bool config_valid(const UMapDetectorConfig& c) noexcept {
       c.max_width_fraction > 1.f) {
     return false;
   }
-  if (!finite_positive(c.max_width) || !finite_positive(c.max_height)) return false;
+  if (!finite_positive(c.max_width) || !finite_positive(c.max_height) ||
+      !finite_positive(c.max_depth_extent)) {
+    return false;
+  }
   if (c.max_candidates < 1) return false;
   if (c.max_detections < 1 || c.max_detections > kMaxDetections) return false;
   return true;
@@ -122,15 +125,16 @@ Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
       continue;
     }
     ++searched;
-    Box3 box_cam;
+    Box3 box_cam, box_map;
     ImageBox ibox;
     float near_depth = 0.f;
-    if (!measure_group(g, depth, cam, &box_cam, &ibox, &near_depth)) {
+    if (!measure_group(g, depth, cam, T_map_camera, &box_cam, &box_map, &ibox, &near_depth)) {
       ++stats_.rejected_height;
       continue;
     }
     const Eigen::Vector3f size = box_cam.size();
-    if (size.x() > config_.max_width || size.y() > config_.max_height) {
+    if (size.x() > config_.max_width || size.y() > config_.max_height ||
+        size.z() > config_.max_depth_extent) {
       ++stats_.rejected_size;
       continue;
     }
@@ -143,7 +147,7 @@ Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
       ++stats_.detections_dropped;
       continue;
     }
-    d->box = transform_box(box_cam, T_map_camera);
+    d->box = config_.box_from_surface_points ? box_map : transform_box(box_cam, T_map_camera);
     d->raw_box = d->box;
     d->image_box = ibox;
     d->near_depth = near_depth;
@@ -253,7 +257,8 @@ void UMapDetector::build_groups() noexcept {
 }
 
 bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
-                                 const CameraIntrinsics& cam, Box3* box_cam, ImageBox* ibox,
+                                 const CameraIntrinsics& cam, const Pose& T_map_camera,
+                                 Box3* box_cam, Box3* box_map, ImageBox* ibox,
                                  float* near_depth) noexcept {
   const int u0 = std::max(0, g.u0);
   const int u1 = std::min(depth.width - 1, g.u1);
@@ -295,24 +300,37 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
   // of stretching the box by the extreme pixels.
   for (int u = u0; u <= u1; ++u) {
     col_depth_sum_[static_cast<std::size_t>(u)] = 0;
+    col_vdepth_sum_[static_cast<std::size_t>(u)] = 0;
     col_count_[static_cast<std::size_t>(u)] = 0;
   }
   for (int v = best_start; v <= best_end; ++v) {
     const std::uint16_t* row = depth.row(v);
     std::uint32_t row_sum = 0;
+    std::uint64_t row_usum = 0;
     for (int u = u0; u <= u1; ++u) {
       const std::uint32_t d = row[u];
       const bool in = d >= raw_lo && d <= raw_hi;
       const std::uint32_t dd = in ? d : 0u;
-      col_depth_sum_[static_cast<std::size_t>(u)] += dd;
-      col_count_[static_cast<std::size_t>(u)] =
-          static_cast<std::uint16_t>(col_count_[static_cast<std::size_t>(u)] + (in ? 1 : 0));
+      const auto ui = static_cast<std::size_t>(u);
+      col_depth_sum_[ui] += dd;
+      col_vdepth_sum_[ui] += static_cast<std::uint64_t>(dd) * static_cast<std::uint32_t>(v);
+      col_count_[ui] = static_cast<std::uint16_t>(col_count_[ui] + (in ? 1 : 0));
       row_sum += dd;
+      row_usum += static_cast<std::uint64_t>(dd) * static_cast<std::uint32_t>(u);
     }
     row_depth_sum_[static_cast<std::size_t>(v)] = row_sum;
+    row_udepth_sum_[static_cast<std::size_t>(v)] = row_usum;
   }
   // Tight box over pixel footprints ([u - 0.5, u + 0.5]); x, y scaled by fx, fy at the end.
+  // Map-frame box: each column contributes the mean map-frame point of its in-band pixels
+  // (widened by half a pixel on each side) to the horizontal bounds, each row its mean point's
+  // height (+- half a pixel) to the vertical bounds. Averaging real surface points keeps an
+  // upright surface at its true distance whatever the camera's pitch.
   const float big = std::numeric_limits<float>::max();
+  const Eigen::Matrix3f R = T_map_camera.rotation.toRotationMatrix();
+  const Eigen::Vector3f& t = T_map_camera.translation;
+  Eigen::Vector3f map_min = Eigen::Vector3f::Constant(big);
+  Eigen::Vector3f map_max = Eigen::Vector3f::Constant(-big);
   float xs_min = big, xs_max = -big, ys_min = big, ys_max = -big, z_near = big, z_far = -big;
   int pu0 = u1, pu1 = u0;
   for (int u = u0; u <= u1; ++u) {
@@ -323,6 +341,14 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
     const float ut = static_cast<float>(u) - 0.5f - cam.cx;
     xs_min = std::min(xs_min, ut * z);
     xs_max = std::max(xs_max, (ut + 1.f) * z);
+    const float v_mean =
+        static_cast<float>(static_cast<double>(col_vdepth_sum_[static_cast<std::size_t>(u)]) /
+                           static_cast<double>(col_depth_sum_[static_cast<std::size_t>(u)]));
+    const Eigen::Vector3f base = R * Eigen::Vector3f(0.f, (v_mean - cam.cy) * z / cam.fy, z) + t;
+    const Eigen::Vector3f step = R.col(0) * (z / cam.fx);
+    const Eigen::Vector3f left = base + step * ut, right = base + step * (ut + 1.f);
+    map_min = map_min.cwiseMin(left).cwiseMin(right);
+    map_max = map_max.cwiseMax(left).cwiseMax(right);
     z_near = std::min(z_near, z);
     z_far = std::max(z_far, z);
     pu0 = std::min(pu0, u);
@@ -337,8 +363,18 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
     const float vt = static_cast<float>(v) - 0.5f - cam.cy;
     ys_min = std::min(ys_min, vt * z);
     ys_max = std::max(ys_max, (vt + 1.f) * z);
+    const float u_mean =
+        static_cast<float>(static_cast<double>(row_udepth_sum_[static_cast<std::size_t>(v)]) /
+                           static_cast<double>(row_depth_sum_[static_cast<std::size_t>(v)]));
+    const Eigen::Vector3f base = R * Eigen::Vector3f((u_mean - cam.cx) * z / cam.fx, 0.f, z) + t;
+    const Eigen::Vector3f step = R.col(1) * (z / cam.fy);
+    const float top = (base + step * vt).z(), bottom = (base + step * (vt + 1.f)).z();
+    map_min.z() = std::min({map_min.z(), top, bottom});
+    map_max.z() = std::max({map_max.z(), top, bottom});
   }
   if (ys_max < ys_min) return false;
+  box_map->min = map_min;
+  box_map->max = map_max;
   box_cam->min = Eigen::Vector3f(xs_min / cam.fx, ys_min / cam.fy, z_near);
   box_cam->max = Eigen::Vector3f(xs_max / cam.fx, ys_max / cam.fy, z_far);
   *ibox = ImageBox{pu0, best_start, pu1, best_end};

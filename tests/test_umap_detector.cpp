@@ -284,7 +284,9 @@ TEST(UMapDetector, MapBoxIsBoundOfAllEightTransformedCorners) {
   scene.boxes = {box_at(-0.3f, 0.2f, -0.4f, 0.3f, 2.5f, 2.9f)};
   scene.wall_z = 6.f;
   const auto img = test::render_depth(scene, cam);
-  auto det = make_detector();
+  UMapDetectorConfig cfg;
+  cfg.box_from_surface_points = false;  // the original rule (the default is tested below)
+  auto det = make_detector(cfg);
   const DetectionList a = run(*det, img, cam, kPose);
   ASSERT_EQ(a.size(), 1u);
   // Camera-frame box recovered exactly through the axis-permuting pose.
@@ -303,6 +305,68 @@ TEST(UMapDetector, MapBoxIsBoundOfAllEightTransformedCorners) {
   EXPECT_TRUE(b[0].box.max.isApprox(expect.max, 1e-4f));
   // A rotated box's bounds are strictly larger than the centre-only guess would suggest.
   EXPECT_GT(b[0].box.size().x(), a[0].box.size().x());
+}
+
+// An upright 0.5 x 0.5 x 1.8 m box (map frame) 3 m ahead of a camera 1.3 m high pitched 10
+// degrees down, in front of a wall at 8 m. The default map box comes from mean surface points:
+// along the ray it spans the visible front face only (thinner than a voxel), at the true
+// distance; laterally and vertically it matches the box. The 8-corner rule stretches the box
+// along the ray by about 1.8 m * sin(10 deg) = 0.31 m.
+TEST(UMapDetector, PitchedCameraKeepsUprightObjectsDepthExtent) {
+  const CameraIntrinsics cam = camera();
+  const float pitch = 10.f * 3.14159265f / 180.f;
+  Pose pose = test::optical_to_map_pose(Eigen::Vector3f(0.f, 0.f, 1.3f));
+  pose.rotation = (Eigen::AngleAxisf(pitch, Eigen::Vector3f::UnitY()) * pose.rotation).normalized();
+  const Eigen::Vector3f bmin(3.f, -0.25f, 0.f), bmax(3.5f, 0.25f, 1.8f);
+  const float wall_x = 8.f;
+  test::SyntheticImage img;
+  img.width = cam.width;
+  img.height = cam.height;
+  img.stride = cam.width;
+  img.pixels.assign(static_cast<std::size_t>(cam.width * cam.height), 0);
+  const Eigen::Matrix3f R = pose.rotation.toRotationMatrix();
+  for (int v = 0; v < cam.height; ++v) {
+    for (int u = 0; u < cam.width; ++u) {
+      // Camera ray with z = 1, so the ray parameter is the depth.
+      const Eigen::Vector3f d_cam((static_cast<float>(u) - cam.cx) / cam.fx,
+                                  (static_cast<float>(v) - cam.cy) / cam.fy, 1.f);
+      const Eigen::Vector3f d = R * d_cam;
+      const Eigen::Vector3f& o = pose.translation;
+      float t = d.x() > 0.f ? (wall_x - o.x()) / d.x() : 1e30f;
+      float t0 = 0.f, t1 = 1e30f;  // slab test against the upright box
+      for (int a = 0; a < 3; ++a) {
+        if (std::fabs(d[a]) < 1e-9f) {
+          if (o[a] < bmin[a] || o[a] > bmax[a]) t0 = 1e30f;
+          continue;
+        }
+        float ta = (bmin[a] - o[a]) / d[a], tb = (bmax[a] - o[a]) / d[a];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+      }
+      if (t0 <= t1 && t0 < t) t = t0;
+      if (t >= 1e29f || o.z() + t * d.z() < 0.f) continue;  // beyond the wall or below z = 0
+      img.pixels[static_cast<std::size_t>(v * cam.width + u)] =
+          static_cast<std::uint16_t>(std::round(t / cam.depth_scale));
+    }
+  }
+  auto det = make_detector();
+  const DetectionList out = run(*det, img, cam, pose);
+  ASSERT_EQ(out.size(), 1u);
+  const Box3& b = out[0].box;
+  EXPECT_NEAR(b.min.x(), bmin.x(), 0.02f);
+  EXPECT_LT(b.size().x(), 0.1f);
+  EXPECT_NEAR(b.min.y(), bmin.y(), 0.03f);
+  EXPECT_NEAR(b.max.y(), bmax.y(), 0.03f);
+  EXPECT_NEAR(b.max.z(), bmax.z(), 0.05f);
+  EXPECT_LT(b.min.z(), 0.1f);
+
+  UMapDetectorConfig corners;
+  corners.box_from_surface_points = false;
+  auto det8 = make_detector(corners);
+  const DetectionList out8 = run(*det8, img, cam, pose);
+  ASSERT_EQ(out8.size(), 1u);
+  EXPECT_GT(out8[0].box.size().x(), 0.25f);  // the stretch the default avoids
 }
 
 TEST(UMapDetector, DropsAndCountsDetectionsOverCapacity) {

@@ -17,9 +17,9 @@ struct KalmanConfig {
   float p0_position = 0.3f;             ///< initial position variance (m^2)
   float p0_velocity = 1.0f;             ///< initial velocity variance ((m/s)^2): starts at v = 0
   float q_position = 1e-5f;             ///< position process noise per reference interval (m^2)
-  float q_velocity = 2e-4f;             ///< velocity process noise per reference interval ((m/s)^2)
-  float r_position = 0.0025f;           ///< position measurement variance (m^2), 5 cm std
-  float r_velocity = 4.5f;              ///< velocity measurement variance: 2 σ^2 / dt^2 at 30 Hz
+  float q_velocity = 5e-3f;             ///< velocity process noise per reference interval ((m/s)^2)
+  float r_position = 2.5e-4f;           ///< position measurement variance (m^2), 1.6 cm std
+  float r_velocity = 0.45f;             ///< velocity measurement variance: 2 σ^2 / dt^2 at 30 Hz
   float q_reference_dt = 1.0f / 30.0f;  ///< seconds that q_position / q_velocity refer to
 
   /// The original implementation's constants (per frame at 30 Hz).
@@ -40,8 +40,10 @@ class ConstantVelocityKalman {
   void reset(const Eigen::Vector4f& state, const KalmanConfig& config) noexcept;
   /// X = A(dt) X, P = A P A^T + Q(dt). kInvalidArgument (nothing changes) unless 0 < dt finite.
   [[nodiscard]] Status predict(float dt) noexcept;
-  /// Measurement update with H = I. kNonFinite (nothing changes) for a NaN/inf measurement.
-  [[nodiscard]] Status update(const Eigen::Vector4f& z) noexcept;
+  /// Measurement update with H = I and R = noise_scale * R_config (a noisier measurement, e.g.
+  /// a far one, gets noise_scale > 1). kNonFinite (nothing changes) for a NaN/inf measurement,
+  /// kInvalidArgument for noise_scale not positive and finite.
+  [[nodiscard]] Status update(const Eigen::Vector4f& z, float noise_scale = 1.f) noexcept;
   /// State X as predict(dt) would make it, without changing the filter.
   Eigen::Vector4f predicted(float dt) const noexcept;
 

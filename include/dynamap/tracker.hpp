@@ -58,6 +58,13 @@ struct TrackerConfig {
   int image_width = 640;                ///< depth image size, for the "fully in view" test
   int image_height = 480;
   int image_margin = 5;  ///< pixels the image box must stay away from the border
+  /// Only detections whose nearest surface is at most this far (m) count towards size fixing:
+  /// far away the depth noise and lost edge pixels make boxes too small.
+  float size_fix_max_depth = 5.0f;
+  /// Stereo depth noise grows with depth squared: beyond this depth (m) the Kalman measurement
+  /// noise is scaled by (near_depth / noise_reference_depth)^4, so far, jittering boxes (a wall
+  /// piece 7 m away) do not gain a speed. 0 disables the scaling.
+  float noise_reference_depth = 3.0f;
   /// Shift depth boxes away from the camera by half their missing depth (docs/tracker.md).
   bool correct_near_surface_bias = true;
 
@@ -131,6 +138,7 @@ class Tracker {
     Eigen::Vector3f size;      // estimated full size
     Eigen::Vector3f raw_size;  // the detection box's own size
     bool in_view;
+    bool near_enough;  // near enough for size fixing
   };
 
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,

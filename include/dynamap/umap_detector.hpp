@@ -49,6 +49,14 @@ struct UMapDetectorConfig {
   float max_width_fraction = 0.9f;
   float max_width = 4.0f;   ///< metres (camera x)
   float max_height = 3.0f;  ///< metres (camera y)
+  /// Groups whose column-mean depths span more than this (metres along the ray) are background:
+  /// a wall seen at a grazing angle, not an object to track (it stays in the map).
+  float max_depth_extent = 1.5f;
+  // map-frame box: true places every column (row) at the mean map-frame point of its in-band
+  // pixels, so an upright object seen by a pitched camera keeps its true depth extent; false
+  // takes the bounds of the camera-frame box's 8 transformed corners (original method, which
+  // stretches the box along the ray by height * sin(pitch)).
+  bool box_from_surface_points = true;
   // bounded work
   std::size_t max_candidates = 64;  ///< height searches per frame (nearest groups first)
   std::size_t max_detections = kMaxDetections;
@@ -104,7 +112,8 @@ class UMapDetector {
   void unite(int a, int b) noexcept;
   void build_groups() noexcept;
   bool measure_group(const Group& g, const DepthView& depth, const CameraIntrinsics& cam,
-                     Box3* box_cam, ImageBox* ibox, float* near_depth) noexcept;
+                     const Pose& T_map_camera, Box3* box_cam, Box3* box_map, ImageBox* ibox,
+                     float* near_depth) noexcept;
 
   UMapDetectorConfig config_{};
   bool initialized_ = false;
@@ -127,6 +136,9 @@ class UMapDetector {
   std::array<std::uint32_t, kMaxImageWidth> col_depth_sum_{};
   std::array<std::uint16_t, kMaxImageWidth> col_count_{};
   std::array<std::uint32_t, kMaxImageHeight> row_depth_sum_{};
+  // Sums of row * depth per column and column * depth per row (mean surface point per line).
+  std::array<std::uint64_t, kMaxImageWidth> col_vdepth_sum_{};
+  std::array<std::uint64_t, kMaxImageHeight> row_udepth_sum_{};
 };
 
 }  // namespace dynamap
