@@ -603,7 +603,14 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     visits_left -= steps;
     visits += steps;
 
+    // The walk keeps the block and in-block indices (0..7 per axis; -1 or 8 right after a
+    // step means "left the block") and only touches the block grid when it crosses a block
+    // boundary. The remaining steps per axis replace the index == end test; the t values get
+    // the same float additions in the same order as the plain walk, so the voxels are the same.
     std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
+    constexpr std::int32_t kM = kBlockEdge - 1;
+    std::int32_t lx = ix & kM, ly = iy & kM, lz = iz & kM;
+    std::int32_t rx = std::abs(ex - ix), ry = std::abs(ey - iy), rz = std::abs(ez - iz);
     Block* block = local_block(bx, by, bz);
     for (std::size_t n = 0; n < steps; ++n) {
       if (block == nullptr) {
@@ -611,9 +618,11 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       } else {
         // Branch-free update: whether this voxel was already updated this frame is mixed along
         // a ray (near the camera mostly yes, far mostly no), so a branch mispredicts often.
-        Voxel& vx = block->voxels[local_index(ix, iy, iz)];
+        Voxel& vx = block->voxels[static_cast<std::size_t>(lx | (ly << kBlockBits) |
+                                                           (lz << (2 * kBlockBits)))];
         const Voxel old = vx;
-        const bool fresh = (old.stamp != hit_stamp) & (old.stamp != miss_stamp);
+        // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both.
+        const bool fresh = static_cast<std::uint16_t>(old.stamp - hit_stamp) > 1u;
         const std::int32_t current = old.log_odds == kUnknown ? 0 : old.log_odds;
         const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
         vx.log_odds = fresh ? updated : old.log_odds;
@@ -627,17 +636,22 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       const bool step_x = (tx <= ty) & (tx <= tz);
       const bool step_y = !step_x & (ty <= tz);
       const bool step_z = !step_x & !step_y;
-      ix += step_x ? sx : 0;
-      iy += step_y ? sy : 0;
-      iz += step_z ? sz : 0;
-      tx = step_x ? (ix == ex ? kInf : tx + dx) : tx;
-      ty = step_y ? (iy == ey ? kInf : ty + dy) : ty;
-      tz = step_z ? (iz == ez ? kInf : tz + dz) : tz;
-      const std::int32_t nbx = ix >> kBlockBits, nby = iy >> kBlockBits, nbz = iz >> kBlockBits;
-      if ((nbx != bx) | (nby != by) | (nbz != bz)) {  // next block: one table lookup
-        bx = nbx;
-        by = nby;
-        bz = nbz;
+      lx += step_x ? sx : 0;
+      ly += step_y ? sy : 0;
+      lz += step_z ? sz : 0;
+      rx -= step_x ? 1 : 0;
+      ry -= step_y ? 1 : 0;
+      rz -= step_z ? 1 : 0;
+      tx = step_x ? (rx == 0 ? kInf : tx + dx) : tx;
+      ty = step_y ? (ry == 0 ? kInf : ty + dy) : ty;
+      tz = step_z ? (rz == 0 ? kInf : tz + dz) : tz;
+      if (((lx | ly | lz) & ~kM) != 0) {  // left the block (-1 or 8 on one axis)
+        bx += lx >> kBlockBits;           // arithmetic shift: -1 -> -1, 8 -> +1
+        by += ly >> kBlockBits;
+        bz += lz >> kBlockBits;
+        lx &= kM;
+        ly &= kM;
+        lz &= kM;
         if (n + 1 < steps) block = local_block(bx, by, bz);
       }
     }
