@@ -603,43 +603,69 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     visits_left -= steps;
     visits += steps;
 
+    // The walk keeps the block, the voxel's index inside it and, per axis, the steps left
+    // until the block boundary; it only touches the block grid when it crosses a boundary.
+    // The remaining steps per axis replace the index == end test; the t values get the same
+    // float additions in the same order as the plain walk, so the voxels are the same.
+    constexpr std::int32_t kM = kBlockEdge - 1;
     std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
+    std::int32_t rx = std::abs(ex - ix), ry = std::abs(ey - iy), rz = std::abs(ez - iz);
+    const auto to_boundary = [](std::int32_t i, std::int32_t s) {
+      return s > 0 ? kBlockEdge - (i & kM) : (i & kM) + 1;
+    };
+    std::int32_t cx = to_boundary(ix, sx), cy = to_boundary(iy, sy), cz = to_boundary(iz, sz);
+    const std::int32_t ox = sx, oy = sy * kBlockEdge, oz = sz * kBlockEdge * kBlockEdge;
+    std::int32_t li = static_cast<std::int32_t>(local_index(ix, iy, iz));
     Block* block = local_block(bx, by, bz);
     for (std::size_t n = 0; n < steps; ++n) {
       if (block == nullptr) {
         ++dropped_updates;
       } else {
-        // Branch-free update: whether this voxel was already updated this frame is mixed along
-        // a ray (near the camera mostly yes, far mostly no), so a branch mispredicts often.
-        Voxel& vx = block->voxels[local_index(ix, iy, iz)];
-        const Voxel old = vx;
-        const bool fresh = (old.stamp != hit_stamp) & (old.stamp != miss_stamp);
-        const std::int32_t current = old.log_odds == kUnknown ? 0 : old.log_odds;
-        const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
-        vx.log_odds = fresh ? updated : old.log_odds;
-        vx.stamp = fresh ? miss_stamp : old.stamp;
-        updates += fresh ? 1u : 0u;
-        // A miss can only turn occupied into free (rare, so a well-predicted branch).
-        if (old.log_odds > q_occupied && fresh && updated <= q_occupied) --block->occupied;
+        Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
+        // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
+        // visits (near the camera) find the voxel already updated this frame.
+        if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) {
+          const std::int16_t old = vx.log_odds;
+          const std::int32_t current = old == kUnknown ? 0 : old;
+          const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+          vx.log_odds = updated;
+          vx.stamp = miss_stamp;
+          ++updates;
+          // A miss can only turn occupied into free.
+          if (old > q_occupied && updated <= q_occupied) --block->occupied;
+        }
       }
-      // Branch-free choice of the axis with the nearest boundary (the branchy version
-      // mispredicts on most steps).
-      const bool step_x = (tx <= ty) & (tx <= tz);
-      const bool step_y = !step_x & (ty <= tz);
-      const bool step_z = !step_x & !step_y;
-      ix += step_x ? sx : 0;
-      iy += step_y ? sy : 0;
-      iz += step_z ? sz : 0;
-      tx = step_x ? (ix == ex ? kInf : tx + dx) : tx;
-      ty = step_y ? (iy == ey ? kInf : ty + dy) : ty;
-      tz = step_z ? (iz == ez ? kInf : tz + dz) : tz;
-      const std::int32_t nbx = ix >> kBlockBits, nby = iy >> kBlockBits, nbz = iz >> kBlockBits;
-      if ((nbx != bx) | (nby != by) | (nbz != bz)) {  // next block: one table lookup
-        bx = nbx;
-        by = nby;
-        bz = nbz;
-        if (n + 1 < steps) block = local_block(bx, by, bz);
+      // Step along the axis with the nearest boundary (ties to the lower axis).
+      bool crossed = false;
+      if ((tx <= ty) & (tx <= tz)) {
+        li += ox;
+        tx = --rx == 0 ? kInf : tx + dx;
+        if (--cx == 0) {
+          li -= kBlockEdge * ox;  // wrap to the other face of the next block
+          bx += sx;
+          cx = kBlockEdge;
+          crossed = true;
+        }
+      } else if (ty <= tz) {
+        li += oy;
+        ty = --ry == 0 ? kInf : ty + dy;
+        if (--cy == 0) {
+          li -= kBlockEdge * oy;
+          by += sy;
+          cy = kBlockEdge;
+          crossed = true;
+        }
+      } else {
+        li += oz;
+        tz = --rz == 0 ? kInf : tz + dz;
+        if (--cz == 0) {
+          li -= kBlockEdge * oz;
+          bz += sz;
+          cz = kBlockEdge;
+          crossed = true;
+        }
       }
+      if (crossed && n + 1 < steps) block = local_block(bx, by, bz);  // one grid lookup
     }
   }
   stats_.rays += rays;
