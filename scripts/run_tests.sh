@@ -8,6 +8,17 @@ cd "$(dirname "$0")/.."
 PRESETS=(${DYNAMAP_TEST_PRESETS:-dev asan tsan noexcept aarch64})
 declare -A result
 failed=0
+
+# Formatting is part of the build's warnings-as-errors discipline.
+echo "=== clang-format check ==="
+unformatted=$(git ls-files '*.cpp' '*.hpp' | while read -r f; do
+  clang-format --dry-run --Werror "$f" >/dev/null 2>&1 || echo "$f"; done)
+if [ -n "$unformatted" ]; then
+  echo "not formatted with .clang-format (run clang-format -i):"; echo "$unformatted"
+  failed=1
+else
+  echo "=== clang-format check: all sources formatted ==="
+fi
 for p in "${PRESETS[@]}"; do
   echo "=== preset ${p}: configure, build, test ==="
   log="build/${p}-workflow.log"
@@ -27,5 +38,6 @@ done
 
 echo
 echo "Summary:"
+[ -n "$unformatted" ] && echo "  format: FAILED" || echo "  format: passed"
 for p in "${PRESETS[@]}"; do echo "  ${p}: ${result[$p]}"; done
 exit ${failed}

@@ -5,6 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config   # toolchain
+  git clang-format                               # sources list and format check
   libeigen3-dev                                  # core (header-only)
   googletest libgtest-dev                        # tests; /usr/src/googletest for the cross build
   libbenchmark-dev                               # host benchmarks

@@ -7,9 +7,13 @@
 namespace dynamap {
 namespace {
 
-std::uint64_t platform_clock() { return platform::monotonic_ns(); }
+std::uint64_t platform_clock() {
+  return platform::monotonic_ns();
+}
 
-constexpr std::size_t idx(Stage s) noexcept { return static_cast<std::size_t>(s); }
+constexpr std::size_t idx(Stage s) noexcept {
+  return static_cast<std::size_t>(s);
+}
 
 // A dynamic track's input to the predictors: centre, top-view velocity and the footprint.
 ObstacleState predictor_input(const TrackedObstacle& o) noexcept {
@@ -25,7 +29,9 @@ ObstacleState predictor_input(const TrackedObstacle& o) noexcept {
 
 }  // namespace
 
-Pipeline::Clock Pipeline::default_clock() noexcept { return &platform_clock; }
+Pipeline::Clock Pipeline::default_clock() noexcept {
+  return &platform_clock;
+}
 
 Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept {
   const ConfigError e = validate(config);
@@ -216,12 +222,18 @@ void Pipeline::adapt_stride(std::uint64_t occupancy_ns) noexcept {
 
 const char* to_string(Stage s) noexcept {
   switch (s) {
-    case Stage::kOccupancy: return "occupancy";
-    case Stage::kDetection: return "detection";
-    case Stage::kRefinement: return "refinement";
-    case Stage::kTracking: return "tracking";
-    case Stage::kCleaning: return "cleaning";
-    case Stage::kPrediction: return "prediction";
+    case Stage::kOccupancy:
+      return "occupancy";
+    case Stage::kDetection:
+      return "detection";
+    case Stage::kRefinement:
+      return "refinement";
+    case Stage::kTracking:
+      return "tracking";
+    case Stage::kCleaning:
+      return "cleaning";
+    case Stage::kPrediction:
+      return "prediction";
   }
   return "unknown";
 }
