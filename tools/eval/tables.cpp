@@ -97,7 +97,8 @@ int main(int argc, char** argv) {
       read_timing(join_path(out, "timing.csv"), stage_names, stage_us);
     }
     std::ostringstream t2;
-    t2 << "### Table II: runtime per module (this machine, one core; all frames of all scenes)\n\n"
+    t2 << "### Table II: runtime per module (this machine, one core, as timed by the replay; all "
+          "frames of all scenes)\n\n"
        << "| module | median (ms) | p99 (ms) | share of summed medians |\n|---|---|---|---|\n";
     double sum = 0;
     for (std::size_t k = 0; k + 1 < stage_names.size(); ++k) sum += percentile(stage_us[k], 0.5);
