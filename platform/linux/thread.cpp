@@ -1,5 +1,7 @@
 #include "dynamap/platform/thread.hpp"
 
+#include "errno_status.hpp"
+
 #include <cerrno>
 #include <cstring>
 
@@ -8,30 +10,15 @@
 #include <sys/mman.h>
 
 namespace dynamap::platform {
-namespace {
-Status from_errno(int err) noexcept {
-  switch (err) {
-    case 0:
-      return Status::kOk;
-    case EPERM:
-    case EACCES:
-      return Status::kPermissionDenied;
-    case EINVAL:
-      return Status::kInvalidArgument;
-    case ENOSYS:
-      return Status::kUnsupported;
-    default:
-      return Status::kSystemError;
-  }
-}
-}  // namespace
+
+using detail::status_from_errno;
 
 Status set_thread_name(const char* name) noexcept {
   if (name == nullptr) return Status::kNullData;
   char buf[16];
   std::strncpy(buf, name, sizeof(buf) - 1);
   buf[sizeof(buf) - 1] = '\0';
-  return from_errno(pthread_setname_np(pthread_self(), buf));
+  return status_from_errno(pthread_setname_np(pthread_self(), buf));
 }
 
 Status set_cpu_affinity(int cpu) noexcept {
@@ -39,7 +26,7 @@ Status set_cpu_affinity(int cpu) noexcept {
   cpu_set_t set;
   CPU_ZERO(&set);
   CPU_SET(cpu, &set);
-  return from_errno(pthread_setaffinity_np(pthread_self(), sizeof(set), &set));
+  return status_from_errno(pthread_setaffinity_np(pthread_self(), sizeof(set), &set));
 }
 
 Status set_fifo_priority(int priority) noexcept {
@@ -49,19 +36,19 @@ Status set_fifo_priority(int priority) noexcept {
   }
   sched_param p{};
   p.sched_priority = priority;
-  return from_errno(pthread_setschedparam(pthread_self(), SCHED_FIFO, &p));
+  return status_from_errno(pthread_setschedparam(pthread_self(), SCHED_FIFO, &p));
 }
 
 Status lock_memory() noexcept {
   if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
     // ENOMEM here means "over RLIMIT_MEMLOCK" for an unprivileged process: a privilege matter.
-    return errno == ENOMEM ? Status::kPermissionDenied : from_errno(errno);
+    return errno == ENOMEM ? Status::kPermissionDenied : status_from_errno(errno);
   }
   return Status::kOk;
 }
 
 Status unlock_memory() noexcept {
-  if (munlockall() != 0) return from_errno(errno);
+  if (munlockall() != 0) return status_from_errno(errno);
   return Status::kOk;
 }
 

@@ -1,5 +1,7 @@
 #include "dynamap/platform/worker_thread.hpp"
 
+#include "errno_status.hpp"
+
 #include <cerrno>
 #include <cstring>
 #include <ctime>
@@ -8,26 +10,8 @@
 #include <sched.h>
 
 namespace dynamap::platform {
-namespace {
 
-Status from_errno(int err) noexcept {
-  switch (err) {
-    case 0:
-      return Status::kOk;
-    case EPERM:
-    case EACCES:
-      return Status::kPermissionDenied;
-    case EINVAL:
-      return Status::kInvalidArgument;
-    case ENOSYS:
-    case ENOTSUP:
-      return Status::kUnsupported;
-    default:
-      return Status::kSystemError;
-  }
-}
-
-}  // namespace
+using detail::status_from_errno;
 
 static_assert(sizeof(unsigned long) >= sizeof(pthread_t), "pthread_t must fit the handle");
 
@@ -74,7 +58,7 @@ Status WorkerThread::start(Entry entry, void* arg, const ThreadOptions& options)
         this);
   }
   pthread_attr_destroy(&attr);
-  if (err != 0) return from_errno(err);
+  if (err != 0) return status_from_errno(err);
   handle_ = static_cast<unsigned long>(handle);
   started_ = true;
   if (options.name != nullptr) {
@@ -90,7 +74,7 @@ Status WorkerThread::join() noexcept {
   if (!started_) return Status::kEmpty;
   const int err = pthread_join(static_cast<pthread_t>(handle_), nullptr);
   started_ = false;
-  return from_errno(err);
+  return status_from_errno(err);
 }
 
 std::uint64_t sleep_clock_ns() noexcept {
@@ -108,7 +92,7 @@ Status sleep_until_ns(std::uint64_t deadline_ns) noexcept {
   do {
     err = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
   } while (err == EINTR);
-  return from_errno(err);
+  return status_from_errno(err);
 }
 
 Status sleep_for_ns(std::uint64_t duration_ns) noexcept {
