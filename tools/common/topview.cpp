@@ -336,7 +336,17 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
     }
     if (!o.label.empty()) {
       set(cr, kText);
-      text(cr, x0 + o.size.x() * f.scale + 4, y0 - 3, o.label, 12);
+      // Right of the box, unless that would run past the plot's right edge: then left of it.
+      cairo_select_font_face(cr, "DejaVu Sans", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+      cairo_set_font_size(cr, 12);
+      cairo_text_extents_t e;
+      cairo_text_extents(cr, o.label.c_str(), &e);
+      const double right = x0 + o.size.x() * f.scale + 4;
+      if (right + e.x_advance > f.px(f.max.x())) {
+        text(cr, x0 - 4, y0 - 3, o.label, 12, false, 1.0);
+      } else {
+        text(cr, right, y0 - 3, o.label, 12);
+      }
     }
   };
   for (const auto& o : s.ground_truth_boxes) draw_box(o, kGroundTruth, true);
