@@ -17,14 +17,8 @@ Status LinearPredictor::init(const LinearPredictorConfig& c) noexcept {
 Status LinearPredictor::predict(const ObstacleState* obstacles, std::size_t count,
                                 const OccupancyQuery& map, PathPrediction* out) noexcept {
   if (!initialised_) return Status::kNotInitialized;
-  if (count > kMaxTracks) return Status::kCapacityExceeded;
-  if (count > 0 && (obstacles == nullptr || out == nullptr || !map.valid())) {
-    return Status::kNullData;
-  }
-  for (std::size_t k = 0; k < count; ++k) {
-    const Status s = validate(obstacles[k]);
-    if (!ok(s)) return s;
-  }
+  const Status bad = validate_prediction_call(obstacles, count, map, out);
+  if (!ok(bad)) return bad;
   for (std::size_t k = 0; k < count; ++k) {
     const ObstacleState& o = obstacles[k];
     PathPrediction& p = out[k];

@@ -93,14 +93,10 @@ bool MarkovPredictor::belief(std::uint32_t track_id, Belief* out) const noexcept
 Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t count,
                                 const OccupancyQuery& map, PathPrediction* out) noexcept {
   if (!initialised_) return Status::kNotInitialized;
-  if (count > kMaxTracks) return Status::kCapacityExceeded;
-  if (count > 0 && (obstacles == nullptr || out == nullptr || !map.valid())) {
-    return Status::kNullData;
-  }
   // Validate everything before touching any state.
+  const Status bad = validate_prediction_call(obstacles, count, map, out);
+  if (!ok(bad)) return bad;
   for (std::size_t k = 0; k < count; ++k) {
-    const Status s = validate(obstacles[k]);
-    if (!ok(s)) return s;
     for (std::size_t m = 0; m < k; ++m) {
       if (obstacles[m].track_id == obstacles[k].track_id) return Status::kInvalidArgument;
     }

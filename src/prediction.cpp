@@ -123,4 +123,17 @@ void write_chosen_path(const PathSamples& path, float z, PathPrediction* out) no
   }
 }
 
+Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
+                                const OccupancyQuery& map, const PathPrediction* out) noexcept {
+  if (count > kMaxTracks) return Status::kCapacityExceeded;
+  if (count > 0 && (obstacles == nullptr || out == nullptr || !map.valid())) {
+    return Status::kNullData;
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const Status s = validate(obstacles[k]);
+    if (!ok(s)) return s;
+  }
+  return Status::kOk;
+}
+
 }  // namespace dynamap

@@ -110,6 +110,13 @@ struct PathPrediction {
   bool path_free(std::size_t i) const noexcept { return ((free_mask >> i) & 1u) != 0; }
 };
 
+/// Checks one predict() call's arguments before any state is touched: kCapacityExceeded
+/// (count > kMaxTracks), kNullData (null arrays with count > 0, invalid map view), then each
+/// obstacle's validate(). Shared by both predictors so their errors are identical.
+[[nodiscard]] Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
+                                              const OccupancyQuery& map,
+                                              const PathPrediction* out) noexcept;
+
 /// Copies `path` (map top view) into out->position/time/num_samples at height z.
 void write_chosen_path(const PathSamples& path, float z, PathPrediction* out) noexcept;
 
