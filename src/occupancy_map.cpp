@@ -436,8 +436,9 @@ void OccupancyMap::advance_frame_stamp() noexcept {
 // ---------------------------------------------------------------------------------------------
 // Integration.
 
-inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Vector3f& dir,
-                                    Eigen::Vector3f& end, bool& is_hit) const noexcept {
+inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir,
+                                    Eigen::Array4f& end, IndexVec& idx,
+                                    bool& is_hit) const noexcept {
   float z = static_cast<float>(raw) * depth_scale_;
   is_hit = true;
   if (raw == 0 || z > config_.max_depth) {
@@ -446,27 +447,27 @@ inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Vector3f& di
   } else if (z < config_.min_depth) {
     return false;
   }
-  Eigen::Vector3f offset = dir * z;
-  // Clip to the local region (the camera is at its centre).
-  float scale = 1.f;
-  for (int a = 0; a < 3; ++a) {
-    const float o = std::fabs(offset[a]);
-    const float h = config_.local_half_extent[a];
-    if (o > h) scale = std::min(scale, h / o);
+  Eigen::Array4f offset = dir * z;
+  // Clip to the local region (the camera is at its centre). One packed test, rarely true:
+  // for floats, o - h > 0 exactly when o > h.
+  if ((offset.abs() - half_extent4_).maxCoeff() > 0.f) {
+    float scale = 1.f;
+    for (int a = 0; a < 3; ++a) {
+      const float o = std::fabs(offset[a]);
+      const float h = half_extent4_[a];
+      if (o > h) scale = std::min(scale, h / o);
+    }
+    if (scale < 1.f) {
+      offset *= scale * (1.f - 1e-4f);  // stay just inside so the end voxel is in the region
+      is_hit = false;
+    }
   }
-  if (scale < 1.f) {
-    offset *= scale * (1.f - 1e-4f);  // stay just inside so the end voxel is in the region
-    is_hit = false;
-  }
-  end = origin_ + offset;
+  end = origin4_ + offset;
+  // Inside the local region, so inside the key range (init() bounds the region, integrate()
+  // the pose): no range checks needed.
+  const Eigen::Array4f x = end * inv_resolution_;
+  idx = {fast_floor(x[0]), fast_floor(x[1]), fast_floor(x[2])};
   return true;
-}
-
-inline bool OccupancyMap::ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f& end,
-                                  bool& is_hit) const noexcept {
-  // Same expressions as mark_end_points(), so both passes compute the same end point.
-  const Eigen::Vector3f row_dir = row_direction(v);
-  return end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_dir, end, is_hit);
 }
 
 void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
@@ -480,33 +481,35 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   const std::size_t max_rays = config_.max_rays_per_frame;
   const std::int32_t q_hit = q_hit_, q_max = q_max_, q_occupied = q_occupied_;
   Block* block = nullptr;
-  std::int32_t bx = 0, by = 0, bz = 0;
-  bool have_block = false;
+  // No block index reaches this sentinel, so the first pixel (and the one after a failed
+  // lookup) always looks its block up.
+  constexpr std::int32_t kNoBlock = std::numeric_limits<std::int32_t>::min();
+  std::int32_t bx = kNoBlock, by = kNoBlock, bz = kNoBlock;
   for (int v = margin; v < height - margin; v += stride) {
     const std::uint16_t* row = depth.row(v);
-    const Eigen::Vector3f row_dir = row_direction(v);
+    const Eigen::Array4f row_dir = row_direction(v);
     for (int u = margin; u < width - margin; u += stride) {
-      Eigen::Vector3f end;
+      Eigen::Array4f end;
+      IndexVec idx;
       bool is_hit = false;
-      if (!end_point(row[u], column_dir_[static_cast<std::size_t>(u)] + row_dir, end, is_hit)) {
+      if (!end_point(row[u], column_dir_[static_cast<std::size_t>(u)] + row_dir, end, idx,
+                     is_hit)) {
         continue;
       }
       ++pixels;
-      IndexVec idx{};
-      if (!index_of(end, idx)) continue;  // cannot happen: the region is inside the key range
       const std::int32_t nbx = idx[0] >> kBlockBits, nby = idx[1] >> kBlockBits,
                          nbz = idx[2] >> kBlockBits;
-      if (!have_block || block == nullptr || ((nbx != bx) | (nby != by) | (nbz != bz))) {
-        bx = nbx;
-        by = nby;
-        bz = nbz;
-        have_block = true;
-        block = local_block(bx, by, bz);
+      if (((nbx ^ bx) | (nby ^ by) | (nbz ^ bz)) != 0) {
+        block = local_block(nbx, nby, nbz);
         if (block == nullptr) {
+          bx = kNoBlock;
           ++dropped;
           ++dropped_updates;
           continue;
         }
+        bx = nbx;
+        by = nby;
+        bz = nbz;
       }
       Voxel& vx = block->voxels[local_index(idx[0], idx[1], idx[2])];
       const std::uint16_t stamp = vx.stamp;
@@ -564,14 +567,17 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     }
     const int u = static_cast<int>(rays_[r] % static_cast<std::uint32_t>(width));
     const int v = static_cast<int>(rays_[r] / static_cast<std::uint32_t>(width));
-    Eigen::Vector3f end;
+    Eigen::Array4f end;
     bool end_is_hit = false;
     IndexVec last{};
-    if (!ray_end(depth, u, v, end, end_is_hit) || !index_of(end, last)) continue;
+    if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v), end,
+                   last, end_is_hit)) {
+      continue;
+    }
     ++rays;
 
     // Amanatides-Woo set-up, parameter t in [0, 1] along origin -> end.
-    const Eigen::Vector3f d = end - origin_;
+    const Eigen::Array4f d = end - origin4_;
     std::int32_t ix = start[0], iy = start[1], iz = start[2];
     const std::int32_t ex = last[0], ey = last[1], ez = last[2];
     const std::int32_t sx = ex >= ix ? 1 : -1, sy = ey >= iy ? 1 : -1, sz = ez >= iz ? 1 : -1;
@@ -702,13 +708,16 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   cy_ = cam.cy;
   inv_fy_ = 1.f / cam.fy;
   origin_ = T_map_camera.translation;
+  origin4_ << origin_, 0.f;
+  half_extent4_ << config_.local_half_extent, std::numeric_limits<float>::infinity();
   const Eigen::Matrix3f R = T_map_camera.rotation.normalized().toRotationMatrix();
   for (int u = 0; u < cam.width; ++u) {
-    column_dir_[static_cast<std::size_t>(u)] =
-        R.col(0) * ((static_cast<float>(u) - cam.cx) / cam.fx);
+    column_dir_[static_cast<std::size_t>(u)]
+        << R.col(0) * ((static_cast<float>(u) - cam.cx) / cam.fx),
+        0.f;
   }
-  down_dir_ = R.col(1);
-  forward_dir_ = R.col(2);
+  down_dir_ << R.col(1), 0.f;
+  forward_dir_ << R.col(2), 0.f;
   if (grid_enabled_) {
     for (int a = 0; a < 3; ++a) {
       const std::size_t i = static_cast<std::size_t>(a);

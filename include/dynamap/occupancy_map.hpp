@@ -217,11 +217,10 @@ class OccupancyMap {
   std::size_t evict_far_blocks() noexcept;
   void release_block(std::uint32_t slot) noexcept;
   void advance_frame_stamp() noexcept;
-  bool ray_end(const DepthView& depth, int u, int v, Eigen::Vector3f& end,
-               bool& is_hit) const noexcept;
-  bool end_point(std::uint16_t raw, const Eigen::Vector3f& dir, Eigen::Vector3f& end,
+  // A ray's end point and end voxel; both passes call this so they agree bit for bit.
+  bool end_point(std::uint16_t raw, const Eigen::Array4f& dir, Eigen::Array4f& end, IndexVec& idx,
                  bool& is_hit) const noexcept;
-  Eigen::Vector3f row_direction(int v) const noexcept {
+  Eigen::Array4f row_direction(int v) const noexcept {
     return ((static_cast<float>(v) - cy_) * inv_fy_) * down_dir_ + forward_dir_;
   }
   void mark_end_points(const DepthView& depth) noexcept;
@@ -250,7 +249,8 @@ class OccupancyMap {
   // --- per-frame scratch (inline, reused) ---
   std::array<std::uint32_t, kMaxRaysPerFrame> rays_{};  ///< pixel index (v * width + u)
   std::size_t ray_count_ = 0;
-  std::array<Eigen::Vector3f, kMaxImageWidth> column_dir_{};  ///< R * ((u-cx)/fx, 0, 0)
+  // Ray geometry as 4-lane arrays (lane 3 = 0) so the per-pixel maths is one SIMD operation.
+  std::array<Eigen::Array4f, kMaxImageWidth> column_dir_{};  ///< R * ((u-cx)/fx, 0, 0)
   std::array<EvictionCandidate, kMaxMapBlocks> eviction_{};
   /// Pool slot + 1 of each block of the local region resolved this frame (0: not yet).
   std::array<std::uint16_t, kLocalGridCells> local_grid_{};
@@ -258,8 +258,10 @@ class OccupancyMap {
   std::size_t grid_cells_ = 0;
   bool grid_enabled_ = false;
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
-  Eigen::Vector3f down_dir_ = Eigen::Vector3f::Zero();     ///< R.col(1)
-  Eigen::Vector3f forward_dir_ = Eigen::Vector3f::Zero();  ///< R.col(2)
+  Eigen::Array4f origin4_ = Eigen::Array4f::Zero();       ///< origin_, lane 3 = 0
+  Eigen::Array4f half_extent4_ = Eigen::Array4f::Zero();  ///< local region, lane 3 = inf
+  Eigen::Array4f down_dir_ = Eigen::Array4f::Zero();      ///< R.col(1)
+  Eigen::Array4f forward_dir_ = Eigen::Array4f::Zero();   ///< R.col(2)
   Eigen::Vector3f box_min_ = Eigen::Vector3f::Zero(), box_max_ = Eigen::Vector3f::Zero();
   const CameraIntrinsics* cam_ = nullptr;
   float depth_scale_ = 0.f, cy_ = 0.f, inv_fy_ = 0.f;
