@@ -437,7 +437,7 @@ void OccupancyMap::advance_frame_stamp() noexcept {
 // Integration.
 
 inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir,
-                                    Eigen::Array4f& end, IndexVec& idx,
+                                    float clip_free_depth, Eigen::Array4f& end, IndexVec& idx,
                                     bool& is_hit) const noexcept {
   float z = static_cast<float>(raw) * depth_scale_;
   is_hit = true;
@@ -450,7 +450,7 @@ inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir
   Eigen::Array4f offset = dir * z;
   // Clip to the local region (the camera is at its centre). One packed test, rarely true:
   // for floats, o - h > 0 exactly when o > h.
-  if ((offset.abs() - half_extent4_).maxCoeff() > 0.f) {
+  if (z > clip_free_depth && (offset.abs() - half_extent4_).maxCoeff() > 0.f) {
     float scale = 1.f;
     for (int a = 0; a < 3; ++a) {
       const float o = std::fabs(offset[a]);
@@ -488,12 +488,25 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   for (int v = margin; v < height - margin; v += stride) {
     const std::uint16_t* row = depth.row(v);
     const Eigen::Array4f row_dir = row_direction(v);
+    // Each component of a row's directions is monotonic in u (rounding is monotonic), so the
+    // row's first and last pixels bound |direction|; up to the depth where the bound reaches
+    // the region's nearest face (less a margin for rounding) no pixel needs the clip test.
+    const Eigen::Array4f reach =
+        (column_dir_[static_cast<std::size_t>(margin)] + row_dir)
+            .abs()
+            .max((column_dir_[static_cast<std::size_t>(width - 1 - margin)] + row_dir).abs());
+    float clip_free_depth = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3; ++a) {
+      if (reach[a] > 0.f) {
+        clip_free_depth = std::min(clip_free_depth, 0.999f * half_extent4_[a] / reach[a]);
+      }
+    }
     for (int u = margin; u < width - margin; u += stride) {
       Eigen::Array4f end;
       IndexVec idx;
       bool is_hit = false;
-      if (!end_point(row[u], column_dir_[static_cast<std::size_t>(u)] + row_dir, end, idx,
-                     is_hit)) {
+      if (!end_point(row[u], column_dir_[static_cast<std::size_t>(u)] + row_dir, clip_free_depth,
+                     end, idx, is_hit)) {
         continue;
       }
       ++pixels;
@@ -570,8 +583,8 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     Eigen::Array4f end;
     bool end_is_hit = false;
     IndexVec last{};
-    if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v), end,
-                   last, end_is_hit)) {
+    if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v),
+                   true, end, last, end_is_hit)) {
       continue;
     }
     ++rays;

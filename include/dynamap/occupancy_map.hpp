@@ -217,9 +217,10 @@ class OccupancyMap {
   std::size_t evict_far_blocks() noexcept;
   void release_block(std::uint32_t slot) noexcept;
   void advance_frame_stamp() noexcept;
-  // A ray's end point and end voxel; both passes call this so they agree bit for bit.
-  bool end_point(std::uint16_t raw, const Eigen::Array4f& dir, Eigen::Array4f& end, IndexVec& idx,
-                 bool& is_hit) const noexcept;
+  // A ray's end point and end voxel (clipped to the local region, tested only beyond
+  // clip_free_depth); both passes call this so they agree bit for bit.
+  bool end_point(std::uint16_t raw, const Eigen::Array4f& dir, float clip_free_depth,
+                 Eigen::Array4f& end, IndexVec& idx, bool& is_hit) const noexcept;
   Eigen::Array4f row_direction(int v) const noexcept {
     return ((static_cast<float>(v) - cy_) * inv_fy_) * down_dir_ + forward_dir_;
   }
