@@ -28,15 +28,17 @@ Status validate_detection(const Detection& d) noexcept {
 
 Status TrackerConfig::validate() const noexcept {
   if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
-  const bool good =
-      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
-      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
-      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
-      noise_reference_depth >= 0.f && history_length + 1 <= kMaxTrackHistory &&
-      continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
-      box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 && image_width > 0 &&
-      image_height > 0 && image_margin >= 0 && 2 * image_margin < image_width &&
-      2 * image_margin < image_height;
+  const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
+                    overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
+                    std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
+                    std::isfinite(noise_reference_depth) && noise_reference_depth >= 0.f &&
+                    std::isfinite(max_extent_change_ratio) && std::isfinite(max_round_footprint) &&
+                    max_round_footprint >= 0.f && history_length + 1 <= kMaxTrackHistory &&
+                    continuity.displacement_frames + 1 <= history_length &&
+                    box_history_length >= 1 && box_history_length <= kMaxBoxHistory &&
+                    size_fix_frames >= 1 && image_width > 0 && image_height > 0 &&
+                    image_margin >= 0 && 2 * image_margin < image_width &&
+                    2 * image_margin < image_height;
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 
@@ -66,16 +68,29 @@ bool Tracker::fully_in_view(const ImageBox& b) const noexcept {
          b.v1 <= config_.image_height - 1 - m;
 }
 
+bool Tracker::moves_rigidly(const Track& t) const noexcept {
+  if (config_.max_extent_change_ratio < 0.f) return true;
+  // Compare the newest detection box with the oldest one in the history (k frames back): the
+  // longest span gives the most displacement against the same edge noise.
+  const Eigen::Vector4f d = t.edges.at_age(0) - t.edges.at_age(t.edges.size() - 1);
+  const Eigen::Vector2f moved = 0.5f * (d.head<2>() + d.tail<2>());  // centre
+  const Eigen::Vector2f grown = d.tail<2>() - d.head<2>();           // size
+  return grown.norm() <= config_.max_extent_change_ratio * moved.norm();
+}
+
 Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3f& camera,
                                       const Eigen::Vector3f* fixed_size) const noexcept {
   Measurement m;
   m.center = det.box.center();
   m.raw_size = det.box.size();
+  m.edges << det.box.min.head<2>(), det.box.max.head<2>();
   m.in_view = fully_in_view(det.image_box);
   m.near_enough = det.near_depth <= config_.size_fix_max_depth;
   m.size = m.raw_size;
   if (fixed_size != nullptr) m.size = *fixed_size;
-  if (config_.correct_near_surface_bias) {
+  const bool round = config_.max_round_footprint <= 0.f ||
+                     std::max(m.raw_size.x(), m.raw_size.y()) <= config_.max_round_footprint;
+  if (config_.correct_near_surface_bias && round) {
     if (fixed_size == nullptr) {
       // Depth sees only the near surface, so the extent along the ray is too small. Assume a
       // round / square footprint: the full horizontal size is the larger horizontal extent.
@@ -109,6 +124,8 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.voter.reset();
   t.positions.clear();
   t.positions.push(m.center.head<2>(), config_.history_length + 1);
+  t.edges.clear();
+  t.edges.push(m.edges, config_.history_length + 1);
   t.boxes.clear();
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
   t.last_measured = m.center.head<2>();
@@ -138,6 +155,7 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   t.last_measured_stamp = stamp;
   t.z_center = m.center.z();
   t.positions.push(xy, config_.history_length + 1);
+  t.edges.push(m.edges, config_.history_length + 1);
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
 
   if (!t.out.size_fixed) {
@@ -171,7 +189,7 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
     t.out.continuity = c_con;
     const float speed = t.kf.velocity().norm();
     const ContinuityFilter filter(config_.continuity);
-    t.voter.push(filter.vote(speed, c_con, t.size), config_.continuity);
+    t.voter.push(filter.vote(speed, c_con, t.size) && moves_rigidly(t), config_.continuity);
   }
 }
 

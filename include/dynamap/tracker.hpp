@@ -67,6 +67,17 @@ struct TrackerConfig {
   float noise_reference_depth = 3.0f;
   /// Shift depth boxes away from the camera by half their missing depth (docs/tracker.md).
   bool correct_near_surface_bias = true;
+  /// Rigid-motion test of the vote: over the position history, the detection box's top-view
+  /// extent may change by at most this fraction of its centre's displacement, or the frame votes
+  /// static. A wall piece whose visible part slides (one end fixed, the other cut by the image
+  /// border or an occluder) grows or shrinks by twice its centre's motion; an object moves both
+  /// edges together. Judged on the detection boxes themselves (before the bias correction).
+  /// Negative disables the test.
+  float max_extent_change_ratio = 1.0f;
+  /// The round-footprint bias correction is applied only when the box's longer horizontal side
+  /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
+  /// visible face's centre is kept. 0 disables the limit.
+  float max_round_footprint = 1.0f;
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -125,6 +136,7 @@ class Tracker {
     DynamicVoter voter;
     HistoryRing<Eigen::Vector2f, kMaxTrackHistory> positions;  // measured, bias-corrected
     HistoryRing<Box3, kMaxBoxHistory> boxes;
+    HistoryRing<Eigen::Vector4f, kMaxTrackHistory> edges;  // detection boxes' top-view min, max
     Eigen::Vector2f last_measured = Eigen::Vector2f::Zero();
     Stamp last_measured_stamp = 0;
     float z_center = 0.f;
@@ -137,6 +149,7 @@ class Tracker {
     Eigen::Vector3f center;
     Eigen::Vector3f size;      // estimated full size
     Eigen::Vector3f raw_size;  // the detection box's own size
+    Eigen::Vector4f edges;     // the detection box's top-view min x, min y, max x, max y
     bool in_view;
     bool near_enough;  // near enough for size fixing
   };
@@ -144,6 +157,7 @@ class Tracker {
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
                       const Eigen::Vector3f* fixed_size) const noexcept;
   bool fully_in_view(const ImageBox& b) const noexcept;
+  bool moves_rigidly(const Track& t) const noexcept;
   void start_track(Track& t, const Measurement& m, Stamp stamp) noexcept;
   void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
                      Stamp stamp) noexcept;

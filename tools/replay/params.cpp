@@ -109,6 +109,8 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.size_fix_max_depth),
       DYNAMAP_PARAM(tracker.noise_reference_depth),
       DYNAMAP_PARAM(tracker.correct_near_surface_bias),
+      DYNAMAP_PARAM(tracker.max_extent_change_ratio),
+      DYNAMAP_PARAM(tracker.max_round_footprint),
       DYNAMAP_PARAM(cleaner.frames),
       DYNAMAP_PARAM(cleaner.inflation),
       DYNAMAP_PARAM(cleaner.z_margin),
