@@ -53,6 +53,9 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
     return Status::kInvalidArgument;
   }
   if (!std::isfinite(c.beta) || c.beta < 0.0f) return Status::kInvalidArgument;
+  if (!std::isfinite(c.straight_return) || c.straight_return < 0.0f || c.straight_return >= 1.0f) {
+    return Status::kInvalidArgument;
+  }
 
   config_ = c;
   library_ = lib;
@@ -63,6 +66,8 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
   for (std::size_t i = 0; i < kMaxPaths; ++i) {
     if (i < l) {
       discrete_gaussian(l, static_cast<double>(i), s_trans, &trans_[i]);
+      const double a = static_cast<double>(c.straight_return);
+      for (std::size_t j = 0; j < l; ++j) trans_[i][j] = (1.0 - a) * trans_[i][j] + a * initial_[j];
     } else {
       trans_[i].fill(0.0);
     }

@@ -15,6 +15,7 @@ Status validate(const ClearanceConfig& c) noexcept {
   if (!std::isfinite(c.ground_clearance) || c.ground_clearance < 0.0f) {
     return Status::kInvalidArgument;
   }
+  if (!std::isfinite(c.self_margin) || c.self_margin < 0.0f) return Status::kInvalidArgument;
   return Status::kOk;
 }
 
@@ -35,6 +36,21 @@ std::size_t clearance_lines(const ClearanceConfig& c, float radius) noexcept {
 }
 
 namespace {
+/// Fraction t in [0, 1] of segment a->b where it leaves the disc of squared radius r2 around c
+/// (0 when a is outside; > 1 when b is inside too, i.e. the whole segment is inside).
+float exit_fraction(const Eigen::Vector2f& a, const Eigen::Vector2f& b, const Eigen::Vector2f& c,
+                    float r2) noexcept {
+  const Eigen::Vector2f d = b - a;
+  const Eigen::Vector2f f = a - c;
+  const float cf = f.squaredNorm() - r2;
+  if (cf >= 0.0f) return 0.0f;  // starts outside
+  if ((b - c).squaredNorm() <= r2) return 2.0f;
+  const float dd = d.squaredNorm();
+  const float fd = f.dot(d);
+  // |f + t d|^2 = r2 has one root in (0, 1) because a is inside and b outside.
+  return (-fd + std::sqrt(fd * fd - dd * cf)) / dd;
+}
+
 /// Last sample m > k such that the chord k->m stays within `tolerance` of the path: the sag of
 /// an arc of length L turning by dphi is about L * dphi / 8 (exactly 0 on straight parts).
 std::size_t chord_end(const PathSamples& path, std::size_t k, std::size_t n,
@@ -75,6 +91,11 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
     for (std::size_t h = 0; h < levels; ++h) level[h] = lo + (static_cast<float>(h) + 0.5f) * step;
   }
 
+  // The obstacle's own body: not checked.
+  const Eigen::Vector2f self_centre = obstacle.position.head<2>();
+  const float self_r = clearance.self_margin > 0.0f ? r + clearance.self_margin : 0.0f;
+  const float self_r2 = self_r * self_r;
+
   PathClearance result;
   const std::size_t n = std::min(path.count, kMaxPathSamples);
   if (n == 0) return result;
@@ -91,10 +112,15 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
         const Eigen::Vector2f b2 = path.position[m] + offset[j] * n1;
         const Eigen::Vector3f a(a2.x(), a2.y(), level[h]);
         const Eigen::Vector3f b(b2.x(), b2.y(), level[h]);
-        // After a hit at fraction `first`, the other lines only need to look before it.
-        const Eigen::Vector3f b_cut = first < 1.0f ? Eigen::Vector3f(a + first * (b - a)) : b;
+        // Start where the line leaves the obstacle's own body; after a hit at fraction
+        // `first`, the other lines only need to look before it.
+        const float t0 = self_r > 0.0f ? exit_fraction(a2, b2, self_centre, self_r2) : 0.0f;
+        const float t1 = std::min(first, 1.0f);
+        if (t0 >= t1) continue;
+        const Eigen::Vector3f a_cut = t0 > 0.0f ? Eigen::Vector3f(a + t0 * (b - a)) : a;
+        const Eigen::Vector3f b_cut = t1 < 1.0f ? Eigen::Vector3f(a + t1 * (b - a)) : b;
         Eigen::Vector3f hit;
-        if (!map.segment(a, b_cut, &hit)) continue;
+        if (!map.segment(a_cut, b_cut, &hit)) continue;
         const Eigen::Vector2f ab = b2 - a2;
         const float len2 = ab.squaredNorm();
         float f = 0.0f;

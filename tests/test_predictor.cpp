@@ -640,6 +640,7 @@ TEST(MarkovPredictor, WorkIsBoundedByPathsTimesSamples) {
     MarkovPredictorConfig cfg = markov_config(l);
     cfg.clearance.line_spacing = 0.3f;  // 3 lines for the 0.3 m footprint
     cfg.clearance.height_levels = 2;
+    cfg.clearance.self_margin = 0.0f;  // count every line's query, also of paths inside the body
     MarkovPredictor mp;
     ASSERT_EQ(mp.init(cfg), Status::kOk);
     for (float speed : {0.05f, 0.11f, 1.2f, 5.0f}) {
@@ -681,6 +682,113 @@ TEST(MarkovPredictor, FootprintClearanceCountsNearMisses) {
   EXPECT_FALSE(out.failed);
   EXPECT_FLOAT_EQ(out.free_distance[0], 3.0f);
   EXPECT_FLOAT_EQ(out.probability[0], 1.0f);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Causes of prediction failures on the simulated scenes (docs/predictor.md, "Why predictions
+// failed").
+
+TEST(MarkovPredictor, TransitionMixesInTheInitialDistribution) {
+  MarkovPredictorConfig c = markov_config(5);
+  c.straight_return = 0.0f;
+  MarkovPredictor plain;
+  ASSERT_EQ(plain.init(c), Status::kOk);
+  c.straight_return = 0.3f;
+  MarkovPredictor mixed;
+  ASSERT_EQ(mixed.init(c), Status::kOk);
+  const double a = static_cast<double>(0.3f);
+  for (std::size_t i = 0; i < 5; ++i) {
+    double row = 0.0;
+    for (std::size_t j = 0; j < 5; ++j) {
+      EXPECT_NEAR(mixed.transition(i, j), (1.0 - a) * plain.transition(i, j) + a * plain.initial(j),
+                  1e-12);
+      EXPECT_LE(mixed.transition(i, j), mixed.transition(i, i));
+      row += mixed.transition(i, j);
+    }
+    EXPECT_NEAR(row, 1.0, 1e-12);
+  }
+  for (float bad : {-0.1f, 1.0f, std::nanf("")}) {
+    c.straight_return = bad;
+    EXPECT_EQ(mixed.init(c), Status::kInvalidArgument);
+  }
+  EXPECT_NEAR(mixed.transition(0, 2), (1.0 - a) * plain.transition(0, 2) + a * plain.initial(2),
+              1e-12);  // a rejected config changed nothing
+}
+
+TEST(MarkovPredictor, BeliefReturnsToStraightOnceTheMapNoLongerChooses) {
+  // Frames 0-9: only left turns are free (walls ahead and right, opening on the left), so the
+  // belief moves onto a left path. Then the walker is in open space, every path free: the plain
+  // Gaussian chain only diffuses back to straight slowly (the walker has turned and walks
+  // straight on in its own velocity frame); with straight_return the belief returns at once.
+  std::array<int, 2> frames_to_straight{};
+  const std::array<float, 2> returns = {0.0f, 0.2f};
+  for (std::size_t r = 0; r < 2; ++r) {
+    BoxWorld w;
+    build_wall_with_left_opening(w);
+    MarkovPredictorConfig c = markov_config(5);
+    c.straight_return = returns[r];
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    PathPrediction out;
+    for (int f = 0; f < 10; ++f) {
+      const ObstacleState o = walker(3, -0.6f, 0.0f, 1.0f, 0.0f);
+      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    }
+    EXPECT_LT(out.chosen, 2u);  // a left turn
+    BoxWorld open;
+    frames_to_straight[r] = 100;
+    for (int f = 0; f < 100; ++f) {
+      const ObstacleState o = walker(3, 0.0f, 10.0f, 0.0f, 1.0f);
+      ASSERT_EQ(mp.predict(&o, 1, open.query(), &out), Status::kOk);
+      EXPECT_EQ(out.free_mask, 0x1Fu);
+      if (out.chosen == 2u) {
+        frames_to_straight[r] = f + 1;
+        break;
+      }
+    }
+  }
+  EXPECT_LE(frames_to_straight[1], 3);  // 0.1 s at 30 Hz
+  EXPECT_GT(frames_to_straight[0], 2 * frames_to_straight[1]);
+}
+
+TEST(MarkovPredictor, OwnBodyInTheMapIsNotAnObstacle) {
+  // The map still holds the walker's own body (this frame's hits around its centre, plus a
+  // voxel layer just ahead of a lagging box): those must not block every path. A wall 1.2 m
+  // ahead must still be found.
+  MapWorld w;
+  w.add_box(Box3{Eigen::Vector3f(-0.2f, -0.2f, 0.0f), Eigen::Vector3f(0.4f, 0.2f, 1.7f)});
+  w.add_box(wall(1.5f, -3.0f, 1.6f, 3.0f));
+  const ObstacleState o = walker(1, 0.0f, 0.0f, 1.0f, 0.0f);
+  for (float margin : {0.0f, 0.15f}) {
+    LinearPredictorConfig lc;
+    lc.clearance.self_margin = margin;
+    LinearPredictor lin;
+    ASSERT_EQ(lin.init(lc), Status::kOk);
+    PathPrediction out;
+    ASSERT_EQ(lin.predict(&o, 1, w.query(), &out), Status::kOk);
+    EXPECT_TRUE(out.failed);
+    if (margin > 0.0f) {
+      EXPECT_NEAR(out.free_distance[0], 1.5f, 0.06f);  // the wall, not the body
+    } else {
+      EXPECT_LT(out.free_distance[0], 0.1f);  // the body
+    }
+    MarkovPredictorConfig mc = markov_config(5);
+    mc.clearance.self_margin = margin;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(mc), Status::kOk);
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    // The sharp turns avoid the wall (1 m radius, then along it): free only without the body.
+    EXPECT_EQ(out.any_free, margin > 0.0f);
+    if (margin > 0.0f) {
+      EXPECT_FALSE(out.failed);
+      EXPECT_TRUE(out.chosen == 0u || out.chosen == 4u);
+    }
+  }
+  ClearanceConfig bad;
+  bad.self_margin = -0.1f;
+  EXPECT_EQ(validate(bad), Status::kInvalidArgument);
+  bad.self_margin = std::nanf("");
+  EXPECT_EQ(validate(bad), Status::kInvalidArgument);
 }
 
 }  // namespace

@@ -26,6 +26,14 @@ struct MarkovPredictorConfig {
   float sigma_init = 0.7853982f;   ///< of P_init around the straight path
   float sigma_trans = 0.7853982f;  ///< of each P_trans row around its diagonal
   float beta = 2.0f;  ///< 1/m: P_env = softmax(beta * free distance); 0 ignores the map
+  /// Share of each P_trans row drawn from P_init instead of the Gaussian around the current path:
+  /// P_trans = (1 - straight_return) * Gaussian rows + straight_return * 1 P_init^T (still row
+  /// stochastic). The paths live in the obstacle's velocity frame, so a walker who has taken a
+  /// turn walks straight on in that frame; without this term nothing but P_env ever pulls the
+  /// belief back to straight, and where the map does not tell the paths apart (all free, or all
+  /// ending in unknown space) it stays on a turn forever. [0, 1); 0 (default) is the plain
+  /// Gaussian chain: 0.2 halves the corridor failures but raises env_a/env_b (docs/predictor.md).
+  float straight_return = 0.0f;
 };
 
 /// Slots of the per-track belief table (power of two, max load 7/8 >= kMaxTracks).

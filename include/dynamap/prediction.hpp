@@ -69,6 +69,11 @@ struct ClearanceConfig {
   std::size_t height_levels = 1;               ///< 1..kMaxHeightLevels
   float chord_tolerance = 0.02f;  ///< m a merged chord may deviate from the path (0: straight only)
   float ground_clearance = 0.2f;  ///< m above the box bottom that is not checked (floor voxels)
+  /// m beyond the footprint radius around the obstacle's current centre that is not checked: the
+  /// map still holds the obstacle's own body (this frame's hits, a lagging or size-corrected
+  /// box, the cleaner's margin), and without this every path "collides" within 0.0-0.4 m.
+  /// 0 disables it (every voxel along the path counts, also inside the body).
+  float self_margin = 0.15f;
 };
 
 /// Number of swept lines for a footprint of `radius` under `c`.
