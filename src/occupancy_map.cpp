@@ -107,6 +107,7 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   frames_ = 0;
   last_stamp_ = 0;
   frame_tag_ = 0;
+  sink_tag_ = 0;
   ray_count_ = 0;
   stats_ = IntegrationStats{};
   initialized_ = true;
@@ -429,6 +430,7 @@ void OccupancyMap::advance_frame_stamp() noexcept {
       for (Voxel& v : pool_[s].voxels) v.stamp = 0;
     }
     frame_tag_ = 0;
+    sink_tag_ = 0;
   }
   ++frame_tag_;
 }
@@ -622,10 +624,12 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     visits_left -= steps;
     visits += steps;
 
-    // The walk keeps the block, the voxel's index inside it and, per axis, the steps left
-    // until the block boundary; it only touches the block grid when it crosses a boundary.
-    // The remaining steps per axis replace the index == end test; the t values get the same
-    // float additions in the same order as the plain walk, so the voxels are the same.
+    // The walk keeps the block, the voxel's index inside it and, per axis, the steps left to
+    // the next event of that axis: its block face or its last step, whichever comes first.
+    // Between events a step is one axis choice, one index add, one t add and one decrement;
+    // steps, end indices and block faces are only looked at in the (rare) event branch. The t
+    // values get the same float additions in the same order as the plain walk, so the voxels
+    // are the same.
     constexpr std::int32_t kM = kBlockEdge - 1;
     std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
     std::int32_t rx = std::abs(ex - ix), ry = std::abs(ey - iy), rz = std::abs(ez - iz);
@@ -633,59 +637,106 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       return s > 0 ? kBlockEdge - (i & kM) : (i & kM) + 1;
     };
     std::int32_t cx = to_boundary(ix, sx), cy = to_boundary(iy, sy), cz = to_boundary(iz, sz);
+    // An axis without steps has t = inf and is never chosen, so its event count never runs out.
+    const auto to_event = [](std::int32_t face, std::int32_t left) {
+      return left == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(face, left);
+    };
+    std::int32_t kx = to_event(cx, rx), ky = to_event(cy, ry), kz = to_event(cz, rz);
     const std::int32_t ox = sx, oy = sy * kBlockEdge, oz = sz * kBlockEdge * kBlockEdge;
     std::int32_t li = static_cast<std::int32_t>(local_index(ix, iy, iz));
-    Block* block = local_block(bx, by, bz);
-    for (std::size_t n = 0; n < steps; ++n) {
-      if (block == nullptr) {
-        ++dropped_updates;
-      } else {
-        Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
-        // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
-        // visits (near the camera) find the voxel already updated this frame.
-        if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) {
-          const std::int16_t old = vx.log_odds;
-          const std::int32_t current = old == kUnknown ? 0 : old;
-          const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
-          vx.log_odds = updated;
-          vx.stamp = miss_stamp;
-          ++updates;
-          // A miss can only turn occupied into free.
-          if (old > q_occupied && updated <= q_occupied) --block->occupied;
-        }
+    Block* block = nullptr;
+    std::size_t n = steps;       // visits left on this ray, including the current voxel
+    std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
+    const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
+      block = local_block(i, j, k);
+      if (block != nullptr) return;
+      // Visits there are counted as dropped updates; the sink's stamps all read "updated
+      // this frame", so the hot loop needs no null test.
+      if (sink_tag_ != frame_tag_) {
+        for (Voxel& vx : sink_.voxels) vx.stamp = miss_stamp;
+        sink_tag_ = frame_tag_;
       }
+      block = &sink_;
+      sink_entry = n;
+    };
+    const auto leave_block = [&] {
+      if (block == &sink_) dropped_updates += sink_entry - n;
+    };
+    enter_block(bx, by, bz);
+    if (n == 0) continue;
+    for (;;) {
+      Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
+      // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
+      // visits (near the camera) find the voxel already updated this frame.
+      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) {
+        const std::int16_t old = vx.log_odds;
+        const std::int32_t current = old == kUnknown ? 0 : old;
+        const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+        vx.log_odds = updated;
+        vx.stamp = miss_stamp;
+        ++updates;
+        // A miss can only turn occupied into free.
+        if (old > q_occupied && updated <= q_occupied) --block->occupied;
+      }
+      if (--n == 0) break;
       // Step along the axis with the nearest boundary (ties to the lower axis).
-      bool crossed = false;
       if ((tx <= ty) & (tx <= tz)) {
         li += ox;
-        tx = --rx == 0 ? kInf : tx + dx;
-        if (--cx == 0) {
+        if (--kx != 0) {
+          tx += dx;
+          continue;
+        }
+        const std::int32_t done = std::min(cx, rx);
+        rx -= done;
+        cx -= done;
+        tx = rx == 0 ? kInf : tx + dx;
+        if (cx == 0) {
           li -= kBlockEdge * ox;  // wrap to the other face of the next block
           bx += sx;
           cx = kBlockEdge;
-          crossed = true;
+          leave_block();
+          enter_block(bx, by, bz);
         }
+        kx = to_event(cx, rx);
       } else if (ty <= tz) {
         li += oy;
-        ty = --ry == 0 ? kInf : ty + dy;
-        if (--cy == 0) {
+        if (--ky != 0) {
+          ty += dy;
+          continue;
+        }
+        const std::int32_t done = std::min(cy, ry);
+        ry -= done;
+        cy -= done;
+        ty = ry == 0 ? kInf : ty + dy;
+        if (cy == 0) {
           li -= kBlockEdge * oy;
           by += sy;
           cy = kBlockEdge;
-          crossed = true;
+          leave_block();
+          enter_block(bx, by, bz);
         }
+        ky = to_event(cy, ry);
       } else {
         li += oz;
-        tz = --rz == 0 ? kInf : tz + dz;
-        if (--cz == 0) {
+        if (--kz != 0) {
+          tz += dz;
+          continue;
+        }
+        const std::int32_t done = std::min(cz, rz);
+        rz -= done;
+        cz -= done;
+        tz = rz == 0 ? kInf : tz + dz;
+        if (cz == 0) {
           li -= kBlockEdge * oz;
           bz += sz;
           cz = kBlockEdge;
-          crossed = true;
+          leave_block();
+          enter_block(bx, by, bz);
         }
+        kz = to_event(cz, rz);
       }
-      if (crossed && n + 1 < steps) block = local_block(bx, by, bz);  // one grid lookup
     }
+    leave_block();
   }
   stats_.rays += rays;
   stats_.rays_dropped += rays_dropped;

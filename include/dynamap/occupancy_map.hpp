@@ -256,6 +256,10 @@ class OccupancyMap {
   /// Pool slot + 1 of each block of the local region resolved this frame (0: not yet).
   std::array<std::uint16_t, kLocalGridCells> local_grid_{};
   std::array<std::int32_t, 3> grid_origin_{}, grid_dim_{};
+  /// Stands in for a block the walk could not allocate (pool full): its stamps are set to this
+  /// frame's miss stamp when first needed, so visits there change nothing.
+  Block sink_{};
+  std::uint16_t sink_tag_ = 0;  ///< frame tag the sink's stamps were set for (0: none)
   std::size_t grid_cells_ = 0;
   bool grid_enabled_ = false;
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
