@@ -523,9 +523,9 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   const Eigen::Array4f origin_x = Eigen::Array4f::Constant(origin4_[0]);
   const Eigen::Array4f origin_y = Eigen::Array4f::Constant(origin4_[1]);
   const Eigen::Array4f origin_z = Eigen::Array4f::Constant(origin4_[2]);
-  // End points lie in the local region, fewer than kKeyBlocks / 2 blocks from the camera's
-  // block per axis (init() bounds the region), so voxel indices taken relative to base_ are
-  // non-negative (shifts are well defined) and a block is named by one int key.
+  // End points lie in the local region, fewer than 2^(kKeyBlockBits - 1) blocks from the
+  // camera's block per axis (init() bounds the region), so voxel indices taken relative to
+  // key_base_ are non-negative (shifts are well defined) and a block is named by one int key.
   const Eigen::Array4i base_x = Eigen::Array4i::Constant(key_base_[0]);
   const Eigen::Array4i base_y = Eigen::Array4i::Constant(key_base_[1]);
   const Eigen::Array4i base_z = Eigen::Array4i::Constant(key_base_[2]);
