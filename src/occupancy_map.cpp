@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace dynamap {
@@ -18,6 +19,33 @@ constexpr std::uint16_t kMiss = 3;    // miss applied this frame
 inline std::int32_t fast_floor(float x) noexcept {
   const auto i = static_cast<std::int32_t>(x);
   return i - static_cast<std::int32_t>(x < static_cast<float>(i));
+}
+
+/// fast_floor of each lane, exactly: x - trunc(x) is exact and negative exactly where
+/// truncation rounded up; adding +0 turns the -0 of x = -0 into +0, so the sign bit (shifted
+/// down arithmetically to -1) is the correction.
+inline Eigen::Array4i floor_lanes(const Eigen::Array4f& x) noexcept {
+  const Eigen::Array4i truncated = x.cast<std::int32_t>();
+  const Eigen::Array4f fraction = (x - truncated.cast<float>()) + 0.f;
+  Eigen::Array4i bits;
+  std::memcpy(bits.data(), fraction.data(), sizeof(bits));
+  return truncated + bits.shiftRight<31>();
+}
+
+/// Smallest raw depth in [1, 65536) for which `pred(raw * scale)` holds; pred must be monotone
+/// (false, then true) in the depth, as float products with a positive scale are. 65536 if none.
+template <class Pred>
+std::uint32_t first_raw_where(float scale, Pred pred) noexcept {
+  std::uint32_t lo = 1, hi = 65536;  // answer in [lo, hi]
+  while (lo < hi) {
+    const std::uint32_t mid = lo + (hi - lo) / 2;
+    if (pred(static_cast<float>(mid) * scale)) {
+      hi = mid;
+    } else {
+      lo = mid + 1;
+    }
+  }
+  return lo;
 }
 
 inline std::int16_t quantize(float log_odds) noexcept {
@@ -107,6 +135,7 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   frames_ = 0;
   last_stamp_ = 0;
   frame_tag_ = 0;
+  sink_tag_ = 0;
   ray_count_ = 0;
   stats_ = IntegrationStats{};
   initialized_ = true;
@@ -429,6 +458,7 @@ void OccupancyMap::advance_frame_stamp() noexcept {
       for (Voxel& v : pool_[s].voxels) v.stamp = 0;
     }
     frame_tag_ = 0;
+    sink_tag_ = 0;
   }
   ++frame_tag_;
 }
@@ -437,7 +467,7 @@ void OccupancyMap::advance_frame_stamp() noexcept {
 // Integration.
 
 inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir,
-                                    float clip_free_depth, Eigen::Array4f& end, IndexVec& idx,
+                                    Eigen::Array4f& end, IndexVec& idx,
                                     bool& is_hit) const noexcept {
   float z = static_cast<float>(raw) * depth_scale_;
   is_hit = true;
@@ -450,7 +480,7 @@ inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir
   Eigen::Array4f offset = dir * z;
   // Clip to the local region (the camera is at its centre). One packed test, rarely true:
   // for floats, o - h > 0 exactly when o > h.
-  if (z > clip_free_depth && (offset.abs() - half_extent4_).maxCoeff() > 0.f) {
+  if ((offset.abs() - half_extent4_).maxCoeff() > 0.f) {
     float scale = 1.f;
     for (int a = 0; a < 3; ++a) {
       const float o = std::fabs(offset[a]);
@@ -478,79 +508,144 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   const bool merge = config_.merge_rays_per_voxel;
   const int margin = config_.pixel_margin, stride = config_.pixel_stride;
   const int width = cam_->width, height = cam_->height;
+  const int columns = sampled_columns_;
   const std::size_t max_rays = config_.max_rays_per_frame;
   const std::int32_t q_hit = q_hit_, q_max = q_max_, q_occupied = q_occupied_;
+  const float max_depth = config_.max_depth;
   Block* block = nullptr;
-  // No block index reaches this sentinel, so the first pixel (and the one after a failed
-  // lookup) always looks its block up.
-  constexpr std::int32_t kNoBlock = std::numeric_limits<std::int32_t>::min();
-  std::int32_t bx = kNoBlock, by = kNoBlock, bz = kNoBlock;
+  // Loop constants in locals: the map writes below could otherwise alias the members, and the
+  // compiler would reload and re-broadcast them for every packet.
+  const std::uint32_t hit_raw_end = hit_raw_end_, near_raw_end = near_raw_end_;
+  const float scale = depth_scale_, inv_res = inv_resolution_;
+  const Eigen::Array4f half_x = Eigen::Array4f::Constant(half_extent4_[0]);
+  const Eigen::Array4f half_y = Eigen::Array4f::Constant(half_extent4_[1]);
+  const Eigen::Array4f half_z = Eigen::Array4f::Constant(half_extent4_[2]);
+  const Eigen::Array4f origin_x = Eigen::Array4f::Constant(origin4_[0]);
+  const Eigen::Array4f origin_y = Eigen::Array4f::Constant(origin4_[1]);
+  const Eigen::Array4f origin_z = Eigen::Array4f::Constant(origin4_[2]);
+  // End points lie in the local region, fewer than 2^(kKeyBlockBits - 1) blocks from the
+  // camera's block per axis (init() bounds the region), so voxel indices taken relative to
+  // key_base_ are non-negative (shifts are well defined) and a block is named by one int key.
+  const Eigen::Array4i base_x = Eigen::Array4i::Constant(key_base_[0]);
+  const Eigen::Array4i base_y = Eigen::Array4i::Constant(key_base_[1]);
+  const Eigen::Array4i base_z = Eigen::Array4i::Constant(key_base_[2]);
+  // Keys are >= 0, so the first pixel (and the one after a failed lookup) looks its block up.
+  std::int32_t current_key = -1;
+  std::size_t ray_count = ray_count_;
   for (int v = margin; v < height - margin; v += stride) {
     const std::uint16_t* row = depth.row(v);
     const Eigen::Array4f row_dir = row_direction(v);
-    // Each component of a row's directions is monotonic in u (rounding is monotonic), so the
-    // row's first and last pixels bound |direction|; up to the depth where the bound reaches
-    // the region's nearest face (less a margin for rounding) no pixel needs the clip test.
-    const Eigen::Array4f reach =
-        (column_dir_[static_cast<std::size_t>(margin)] + row_dir)
-            .abs()
-            .max((column_dir_[static_cast<std::size_t>(width - 1 - margin)] + row_dir).abs());
-    float clip_free_depth = std::numeric_limits<float>::infinity();
-    for (int a = 0; a < 3; ++a) {
-      if (reach[a] > 0.f) {
-        clip_free_depth = std::min(clip_free_depth, 0.999f * half_extent4_[a] / reach[a]);
+    const Eigen::Array4f row_x = Eigen::Array4f::Constant(row_dir[0]);
+    const Eigen::Array4f row_y = Eigen::Array4f::Constant(row_dir[1]);
+    const Eigen::Array4f row_z = Eigen::Array4f::Constant(row_dir[2]);
+    // Four sampled pixels per step, one per lane, structure of arrays. Every lane gets the
+    // scalar end_point()'s float operations in the same order, branch-free (Eigen maps them to
+    // SSE/NEON element-wise operations; the selects are exact arithmetic and floor_lanes is
+    // exact), so the end voxels are bit-identical to end_point()'s, which pass 2 uses. The map
+    // update stays scalar, in pixel order.
+    for (int k0 = 0; k0 < columns; k0 += 4) {
+      const int lanes = std::min(4, columns - k0);
+      std::array<std::uint16_t, 4> raw{};
+      const std::uint16_t* px = row + margin + k0 * stride;
+      if (lanes == 4) {
+        for (int l = 0; l < 4; ++l) raw[static_cast<std::size_t>(l)] = px[l * stride];
+      } else {
+        // Lanes past the row end repeat its last pixel; they are never used.
+        for (int l = 0; l < 4; ++l) {
+          raw[static_cast<std::size_t>(l)] = px[std::min(l, lanes - 1) * stride];
+        }
       }
-    }
-    for (int u = margin; u < width - margin; u += stride) {
-      Eigen::Array4f end;
-      IndexVec idx;
-      bool is_hit = false;
-      if (!end_point(row[u], column_dir_[static_cast<std::size_t>(u)] + row_dir, clip_free_depth,
-                     end, idx, is_hit)) {
-        continue;
+      const Eigen::Array4f raw_f{static_cast<float>(raw[0]), static_cast<float>(raw[1]),
+                                 static_cast<float>(raw[2]), static_cast<float>(raw[3])};
+      // Free rays (no return, or beyond max_depth) are cast to max_depth. Select-free form:
+      // (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
+      const Eigen::Array4f z_ray =
+          (raw_f * scale + (1.f - raw_f).max(0.f) * max_depth).min(max_depth);
+      const auto k = static_cast<std::size_t>(k0);
+      Eigen::Array4f off_x = (Eigen::Array4f::Map(&sampled_dir_x_[k]) + row_x) * z_ray;
+      Eigen::Array4f off_y = (Eigen::Array4f::Map(&sampled_dir_y_[k]) + row_y) * z_ray;
+      Eigen::Array4f off_z = (Eigen::Array4f::Map(&sampled_dir_z_[k]) + row_z) * z_ray;
+      // For floats o - h > 0 exactly when o > h, as in end_point().
+      const Eigen::Array4f outside =
+          (off_x.abs() - half_x).max(off_y.abs() - half_y).max(off_z.abs() - half_z);
+      const bool any_outside = outside.maxCoeff() > 0.f;
+      Eigen::Array4f clip_scale = Eigen::Array4f::Ones();
+      if (any_outside) {
+        // end_point()'s clip: min(1, h/|o|) is 1 where |o| <= h (h/|o| >= 1, or inf), so the
+        // minimum over axes is its scale; lanes inside keep the factor 1 exactly. The factor
+        // is shrink where scale < 1 and shrink + (1 - c) = c + (1 - c) = 1 (exact) where not.
+        clip_scale =
+            (half_x / off_x.abs()).min(half_y / off_y.abs()).min(half_z / off_z.abs()).min(1.f);
+        constexpr float kInside = 1.f - 1e-4f;
+        const Eigen::Array4f shrink = clip_scale * kInside;
+        // 1 where scale == 1, 0 where scale < 1 (then scale - 1 <= -2^-24).
+        const Eigen::Array4f unclipped = 1.f + ((clip_scale - 1.f) * 1073741824.f).max(-1.f);
+        const Eigen::Array4f factor = shrink + unclipped * (1.f - kInside);
+        off_x *= factor;
+        off_y *= factor;
+        off_z *= factor;
       }
-      ++pixels;
-      const std::int32_t nbx = idx[0] >> kBlockBits, nby = idx[1] >> kBlockBits,
-                         nbz = idx[2] >> kBlockBits;
-      if (((nbx ^ bx) | (nby ^ by) | (nbz ^ bz)) != 0) {
-        block = local_block(nbx, nby, nbz);
-        if (block == nullptr) {
-          bx = kNoBlock;
-          ++dropped;
-          ++dropped_updates;
+      const Eigen::Array4i ix = floor_lanes((origin_x + off_x) * inv_res) - base_x;
+      const Eigen::Array4i iy = floor_lanes((origin_y + off_y) * inv_res) - base_y;
+      const Eigen::Array4i iz = floor_lanes((origin_z + off_z) * inv_res) - base_z;
+      const Eigen::Array4i blk_x = ix.shiftRight<kBlockBits>();
+      const Eigen::Array4i blk_y = iy.shiftRight<kBlockBits>();
+      const Eigen::Array4i blk_z = iz.shiftRight<kBlockBits>();
+      const Eigen::Array4i in_block =
+          (ix - blk_x.shiftLeft<kBlockBits>()) +
+          (iy - blk_y.shiftLeft<kBlockBits>()).shiftLeft<kBlockBits>() +
+          (iz - blk_z.shiftLeft<kBlockBits>()).shiftLeft<2 * kBlockBits>();
+      const Eigen::Array4i key =
+          blk_x + (blk_y + blk_z.shiftLeft<kKeyBlockBits>()).shiftLeft<kKeyBlockBits>();
+      for (int l = 0; l < lanes; ++l) {
+        const std::uint32_t r = raw[static_cast<std::size_t>(l)];
+        const bool measured = r != 0 && r < hit_raw_end;
+        if (measured && r < near_raw_end) continue;           // closer than min_depth
+        const bool hit = measured && !(clip_scale[l] < 1.f);  // a clipped ray loses its hit
+        const std::int32_t lane_key = key[l];
+        ++pixels;
+        if (lane_key != current_key) {
+          const std::int32_t nbx = blk_x[l] + (key_base_[0] >> kBlockBits);
+          const std::int32_t nby = blk_y[l] + (key_base_[1] >> kBlockBits);
+          const std::int32_t nbz = blk_z[l] + (key_base_[2] >> kBlockBits);
+          block = local_block(nbx, nby, nbz);
+          if (block == nullptr) {
+            current_key = -1;
+            ++dropped;
+            ++dropped_updates;
+            continue;
+          }
+          current_key = lane_key;
+        }
+        Voxel& vx = block->voxels[static_cast<std::size_t>(in_block[l])];
+        const std::uint16_t stamp = vx.stamp;
+        if (merge && (stamp == hit_stamp || (!hit && stamp == queued_stamp))) {
+          ++merged;
           continue;
         }
-        bx = nbx;
-        by = nby;
-        bz = nbz;
-      }
-      Voxel& vx = block->voxels[local_index(idx[0], idx[1], idx[2])];
-      const std::uint16_t stamp = vx.stamp;
-      if (merge && (stamp == hit_stamp || (!is_hit && stamp == queued_stamp))) {
-        ++merged;
-        continue;
-      }
-      if (ray_count_ >= max_rays) {
-        ++dropped;
-        continue;
-      }
-      if (is_hit) {
-        if (stamp != hit_stamp) {
-          const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
-          const std::int32_t updated = std::min(current + q_hit, q_max);
-          block->occupied = static_cast<std::uint16_t>(block->occupied + (updated > q_occupied) -
-                                                       (vx.log_odds > q_occupied));
-          vx.log_odds = static_cast<std::int16_t>(updated);
-          vx.stamp = hit_stamp;
-          ++updates;
-          ++hits;
+        if (ray_count >= max_rays) {
+          ++dropped;
+          continue;
         }
-      } else if (stamp != hit_stamp) {
-        vx.stamp = queued_stamp;
+        if (hit) {
+          if (stamp != hit_stamp) {
+            const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
+            const std::int32_t updated = std::min(current + q_hit, q_max);
+            block->occupied = static_cast<std::uint16_t>(block->occupied + (updated > q_occupied) -
+                                                         (vx.log_odds > q_occupied));
+            vx.log_odds = static_cast<std::int16_t>(updated);
+            vx.stamp = hit_stamp;
+            ++updates;
+            ++hits;
+          }
+        } else if (stamp != hit_stamp) {
+          vx.stamp = queued_stamp;
+        }
+        rays_[ray_count++] = static_cast<std::uint32_t>(v * width + margin + (k0 + l) * stride);
       }
-      rays_[ray_count_++] = static_cast<std::uint32_t>(v * width + u);
     }
   }
+  ray_count_ = ray_count;
   stats_.pixels_sampled += pixels;
   stats_.rays_merged += merged;
   stats_.rays_dropped += dropped;
@@ -583,8 +678,8 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     Eigen::Array4f end;
     bool end_is_hit = false;
     IndexVec last{};
-    if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v),
-                   true, end, last, end_is_hit)) {
+    if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v), end,
+                   last, end_is_hit)) {
       continue;
     }
     ++rays;
@@ -622,10 +717,12 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     visits_left -= steps;
     visits += steps;
 
-    // The walk keeps the block, the voxel's index inside it and, per axis, the steps left
-    // until the block boundary; it only touches the block grid when it crosses a boundary.
-    // The remaining steps per axis replace the index == end test; the t values get the same
-    // float additions in the same order as the plain walk, so the voxels are the same.
+    // The walk keeps the block, the voxel's index inside it and, per axis, the steps left to
+    // the next event of that axis: its block face or its last step, whichever comes first.
+    // Between events a step is one axis choice, one index add, one t add and one decrement;
+    // steps, end indices and block faces are only looked at in the (rare) event branch. The t
+    // values get the same float additions in the same order as the plain walk, so the voxels
+    // are the same.
     constexpr std::int32_t kM = kBlockEdge - 1;
     std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
     std::int32_t rx = std::abs(ex - ix), ry = std::abs(ey - iy), rz = std::abs(ez - iz);
@@ -633,59 +730,106 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       return s > 0 ? kBlockEdge - (i & kM) : (i & kM) + 1;
     };
     std::int32_t cx = to_boundary(ix, sx), cy = to_boundary(iy, sy), cz = to_boundary(iz, sz);
+    // An axis without steps has t = inf and is never chosen, so its event count never runs out.
+    const auto to_event = [](std::int32_t face, std::int32_t left) {
+      return left == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(face, left);
+    };
+    std::int32_t kx = to_event(cx, rx), ky = to_event(cy, ry), kz = to_event(cz, rz);
     const std::int32_t ox = sx, oy = sy * kBlockEdge, oz = sz * kBlockEdge * kBlockEdge;
     std::int32_t li = static_cast<std::int32_t>(local_index(ix, iy, iz));
-    Block* block = local_block(bx, by, bz);
-    for (std::size_t n = 0; n < steps; ++n) {
-      if (block == nullptr) {
-        ++dropped_updates;
-      } else {
-        Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
-        // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
-        // visits (near the camera) find the voxel already updated this frame.
-        if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) {
-          const std::int16_t old = vx.log_odds;
-          const std::int32_t current = old == kUnknown ? 0 : old;
-          const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
-          vx.log_odds = updated;
-          vx.stamp = miss_stamp;
-          ++updates;
-          // A miss can only turn occupied into free.
-          if (old > q_occupied && updated <= q_occupied) --block->occupied;
-        }
+    Block* block = nullptr;
+    std::size_t n = steps;       // visits left on this ray, including the current voxel
+    std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
+    const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
+      block = local_block(i, j, k);
+      if (block != nullptr) return;
+      // Visits there are counted as dropped updates; the sink's stamps all read "updated
+      // this frame", so the hot loop needs no null test.
+      if (sink_tag_ != frame_tag_) {
+        for (Voxel& vx : sink_.voxels) vx.stamp = miss_stamp;
+        sink_tag_ = frame_tag_;
       }
+      block = &sink_;
+      sink_entry = n;
+    };
+    const auto leave_block = [&] {
+      if (block == &sink_) dropped_updates += sink_entry - n;
+    };
+    enter_block(bx, by, bz);
+    if (n == 0) continue;
+    for (;;) {
+      Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
+      // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
+      // visits (near the camera) find the voxel already updated this frame.
+      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) {
+        const std::int16_t old = vx.log_odds;
+        const std::int32_t current = old == kUnknown ? 0 : old;
+        const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+        vx.log_odds = updated;
+        vx.stamp = miss_stamp;
+        ++updates;
+        // A miss can only turn occupied into free.
+        if (old > q_occupied && updated <= q_occupied) --block->occupied;
+      }
+      if (--n == 0) break;
       // Step along the axis with the nearest boundary (ties to the lower axis).
-      bool crossed = false;
       if ((tx <= ty) & (tx <= tz)) {
         li += ox;
-        tx = --rx == 0 ? kInf : tx + dx;
-        if (--cx == 0) {
+        if (--kx != 0) {
+          tx += dx;
+          continue;
+        }
+        const std::int32_t done = std::min(cx, rx);
+        rx -= done;
+        cx -= done;
+        tx = rx == 0 ? kInf : tx + dx;
+        if (cx == 0) {
           li -= kBlockEdge * ox;  // wrap to the other face of the next block
           bx += sx;
           cx = kBlockEdge;
-          crossed = true;
+          leave_block();
+          enter_block(bx, by, bz);
         }
+        kx = to_event(cx, rx);
       } else if (ty <= tz) {
         li += oy;
-        ty = --ry == 0 ? kInf : ty + dy;
-        if (--cy == 0) {
+        if (--ky != 0) {
+          ty += dy;
+          continue;
+        }
+        const std::int32_t done = std::min(cy, ry);
+        ry -= done;
+        cy -= done;
+        ty = ry == 0 ? kInf : ty + dy;
+        if (cy == 0) {
           li -= kBlockEdge * oy;
           by += sy;
           cy = kBlockEdge;
-          crossed = true;
+          leave_block();
+          enter_block(bx, by, bz);
         }
+        ky = to_event(cy, ry);
       } else {
         li += oz;
-        tz = --rz == 0 ? kInf : tz + dz;
-        if (--cz == 0) {
+        if (--kz != 0) {
+          tz += dz;
+          continue;
+        }
+        const std::int32_t done = std::min(cz, rz);
+        rz -= done;
+        cz -= done;
+        tz = rz == 0 ? kInf : tz + dz;
+        if (cz == 0) {
           li -= kBlockEdge * oz;
           bz += sz;
           cz = kBlockEdge;
-          crossed = true;
+          leave_block();
+          enter_block(bx, by, bz);
         }
+        kz = to_event(cz, rz);
       }
-      if (crossed && n + 1 < steps) block = local_block(bx, by, bz);  // one grid lookup
     }
+    leave_block();
   }
   stats_.rays += rays;
   stats_.rays_dropped += rays_dropped;
@@ -718,6 +862,9 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   ray_count_ = 0;
   cam_ = &cam;
   depth_scale_ = cam.depth_scale;
+  // Pass 1 classifies raw depths with integer compares, exactly as end_point() does with floats.
+  hit_raw_end_ = first_raw_where(depth_scale_, [&](float z) { return z > config_.max_depth; });
+  near_raw_end_ = first_raw_where(depth_scale_, [&](float z) { return !(z < config_.min_depth); });
   cy_ = cam.cy;
   inv_fy_ = 1.f / cam.fy;
   origin_ = T_map_camera.translation;
@@ -728,6 +875,22 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
     column_dir_[static_cast<std::size_t>(u)]
         << R.col(0) * ((static_cast<float>(u) - cam.cx) / cam.fx),
         0.f;
+  }
+  // Sampled columns' directions, one array per axis, padded to whole 4-lane packets with the
+  // last column (the same floats as column_dir_, so both passes agree bit for bit).
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  sampled_columns_ = cam.width > 2 * margin ? (cam.width - 2 * margin + stride - 1) / stride : 0;
+  for (int k = 0; k < sampled_columns_ + 3; ++k) {
+    const int u = margin + std::min(k, std::max(sampled_columns_ - 1, 0)) * stride;
+    const Eigen::Array4f& dir = column_dir_[static_cast<std::size_t>(std::min(u, cam.width - 1))];
+    sampled_dir_x_[static_cast<std::size_t>(k)] = dir[0];
+    sampled_dir_y_[static_cast<std::size_t>(k)] = dir[1];
+    sampled_dir_z_[static_cast<std::size_t>(k)] = dir[2];
+  }
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::int32_t camera_block =
+        fast_floor(origin_[static_cast<int>(a)] * inv_resolution_) >> kBlockBits;
+    key_base_[a] = (camera_block - (1 << (kKeyBlockBits - 1))) * kBlockEdge;
   }
   down_dir_ << R.col(1), 0.f;
   forward_dir_ << R.col(2), 0.f;

@@ -217,10 +217,10 @@ class OccupancyMap {
   std::size_t evict_far_blocks() noexcept;
   void release_block(std::uint32_t slot) noexcept;
   void advance_frame_stamp() noexcept;
-  // A ray's end point and end voxel (clipped to the local region, tested only beyond
-  // clip_free_depth); both passes call this so they agree bit for bit.
-  bool end_point(std::uint16_t raw, const Eigen::Array4f& dir, float clip_free_depth,
-                 Eigen::Array4f& end, IndexVec& idx, bool& is_hit) const noexcept;
+  // A ray's end point and end voxel (clipped to the local region). Pass 2 calls this; pass 1
+  // does the same float operations four pixels at a time, so both agree bit for bit.
+  bool end_point(std::uint16_t raw, const Eigen::Array4f& dir, Eigen::Array4f& end, IndexVec& idx,
+                 bool& is_hit) const noexcept;
   Eigen::Array4f row_direction(int v) const noexcept {
     return ((static_cast<float>(v) - cy_) * inv_fy_) * down_dir_ + forward_dir_;
   }
@@ -252,10 +252,26 @@ class OccupancyMap {
   std::size_t ray_count_ = 0;
   // Ray geometry as 4-lane arrays (lane 3 = 0) so the per-pixel maths is one SIMD operation.
   std::array<Eigen::Array4f, kMaxImageWidth> column_dir_{};  ///< R * ((u-cx)/fx, 0, 0)
+  /// column_dir_ of the sampled columns (margin + k * stride), one array per axis, so pass 1
+  /// loads 4 pixels' directions per axis at once; padded to whole packets.
+  std::array<float, kMaxImageWidth + 4> sampled_dir_x_{}, sampled_dir_y_{}, sampled_dir_z_{};
+  int sampled_columns_ = 0;
+  /// Raw depths 1 .. hit_raw_end_ - 1 are hits (depth <= max_depth); below near_raw_end_ they
+  /// are closer than min_depth (end_point()'s float tests, as integer ranges of the raw value).
+  std::uint32_t hit_raw_end_ = 0, near_raw_end_ = 0;
+  /// Pass 1 names blocks by an int key of block indices relative to key_base_ (voxel index of
+  /// the camera's block less 2^(kKeyBlockBits-1) blocks per axis; the local region is at most
+  /// 1000 voxels = 125 blocks each side of the camera, init() checks it).
+  static constexpr int kKeyBlockBits = 9;
+  std::array<std::int32_t, 3> key_base_{};
   std::array<EvictionCandidate, kMaxMapBlocks> eviction_{};
   /// Pool slot + 1 of each block of the local region resolved this frame (0: not yet).
   std::array<std::uint16_t, kLocalGridCells> local_grid_{};
   std::array<std::int32_t, 3> grid_origin_{}, grid_dim_{};
+  /// Stands in for a block the walk could not allocate (pool full): its stamps are set to this
+  /// frame's miss stamp when first needed, so visits there change nothing.
+  Block sink_{};
+  std::uint16_t sink_tag_ = 0;  ///< frame tag the sink's stamps were set for (0: none)
   std::size_t grid_cells_ = 0;
   bool grid_enabled_ = false;
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
