@@ -132,7 +132,7 @@ class Tracker {
  private:
   struct Track {
     TrackedObstacle out;
-    ConstantVelocityKalman kf;
+    TrackFilter kf;
     DynamicVoter voter;
     HistoryRing<Eigen::Vector2f, kMaxTrackHistory> positions;  // measured, bias-corrected
     HistoryRing<Box3, kMaxBoxHistory> boxes;
