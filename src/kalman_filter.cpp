@@ -274,9 +274,4 @@ Eigen::Vector2f TrackFilter::velocity() const noexcept {
   return model_ == MotionModel::kTurnImm ? imm_.velocity() : cv_.velocity();
 }
 
-Eigen::Matrix2f TrackFilter::position_covariance() const noexcept {
-  return model_ == MotionModel::kTurnImm ? Eigen::Matrix2f(imm_.covariance().topLeftCorner<2, 2>())
-                                         : Eigen::Matrix2f(cv_.covariance().topLeftCorner<2, 2>());
-}
-
 }  // namespace dynamap

@@ -153,8 +153,6 @@ class TrackFilter {
   [[nodiscard]] Status update(const Eigen::Vector4f& z, float noise_scale = 1.f) noexcept;
   Eigen::Vector2f position() const noexcept;
   Eigen::Vector2f velocity() const noexcept;
-  /// Top-view position covariance (2 x 2) of the current estimate.
-  Eigen::Matrix2f position_covariance() const noexcept;
   MotionModel model() const noexcept { return model_; }
   const ConstantVelocityKalman& cv() const noexcept { return cv_; }
   const TurnImmKalman& imm() const noexcept { return imm_; }
