@@ -88,7 +88,7 @@ struct TrackerConfig {
   std::size_t early_votes = 8;
   /// While the history is shorter than the n + 2 states the continuity filter needs, vote with
   /// displacements this many frames apart once 2 * early_displacement_frames + 1 states exist
-  /// (0: no votes before n + 2 states). At 1 m/s, 4 frames are 13 cm, eight times the
+  /// (0: no votes before n + 2 states). At 1 m/s, 3 frames are 10 cm, six times the
   /// detector's 1.6 cm centre noise, so the direction of each displacement is still clear.
   std::size_t early_displacement_frames = 3;
   /// After the size is frozen, keep averaging k' in-view frames at a time and raise the frozen
