@@ -30,9 +30,11 @@ struct Scene {
   std::size_t n = 0;
   int frame = 0;
 
-  explicit Scene(std::size_t count) : n(count) {
+  explicit Scene(std::size_t count, MotionModel model = KalmanConfig{}.model) : n(count) {
     (void)map->init(OccupancyMapConfig{});
-    (void)tracker->init(TrackerConfig{});
+    TrackerConfig tc;
+    tc.kalman.model = model;
+    (void)tracker->init(tc);
     (void)history->init(3'000'000'000ULL);
     DynamicRegionCleanerConfig cc;
     cc.min_z = 0.f;
@@ -78,8 +80,8 @@ struct Scene {
   }
 };
 
-void run(benchmark::State& state, bool clean) {
-  Scene scene(static_cast<std::size_t>(state.range(0)));
+void run(benchmark::State& state, bool clean, MotionModel model = KalmanConfig{}.model) {
+  Scene scene(static_cast<std::size_t>(state.range(0)), model);
   for (int f = 0; f < 60; ++f) {  // warm up: every walker is dynamic by now
     scene.prepare();
     scene.step(clean);
@@ -106,12 +108,20 @@ void BM_TrackAndClean(benchmark::State& state) {
 void BM_TrackOnly(benchmark::State& state) {
   run(state, false);
 }
+// The original constant-velocity filter, for the cost of the IMM (docs/tracker.md).
+void BM_TrackOnlyConstantVelocity(benchmark::State& state) {
+  run(state, false, MotionModel::kConstantVelocity);
+}
 
 BENCHMARK(BM_TrackAndClean)
     ->Arg(10)
     ->Arg(static_cast<int>(kMaxTracks))
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_TrackOnly)->Arg(10)->Arg(static_cast<int>(kMaxTracks))->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_TrackOnlyConstantVelocity)
+    ->Arg(10)
+    ->Arg(static_cast<int>(kMaxTracks))
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -28,17 +28,18 @@ Status validate_detection(const Detection& d) noexcept {
 
 Status TrackerConfig::validate() const noexcept {
   if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
-  const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
-                    overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
-                    std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
-                    std::isfinite(noise_reference_depth) && noise_reference_depth >= 0.f &&
-                    std::isfinite(max_extent_change_ratio) && std::isfinite(max_round_footprint) &&
-                    max_round_footprint >= 0.f && history_length + 1 <= kMaxTrackHistory &&
-                    continuity.displacement_frames + 1 <= history_length &&
-                    box_history_length >= 1 && box_history_length <= kMaxBoxHistory &&
-                    size_fix_frames >= 1 && image_width > 0 && image_height > 0 &&
-                    image_margin >= 0 && 2 * image_margin < image_width &&
-                    2 * image_margin < image_height;
+  const bool good =
+      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
+      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
+      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
+      noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
+      std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
+      history_length + 1 <= kMaxTrackHistory &&
+      continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
+      box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 && image_width > 0 &&
+      image_height > 0 && early_votes <= continuity.vote_window &&
+      early_displacement_frames < continuity.displacement_frames && image_margin >= 0 &&
+      2 * image_margin < image_width && 2 * image_margin < image_height;
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 
@@ -87,9 +88,15 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
   m.in_view = fully_in_view(det.image_box);
   m.near_enough = det.near_depth <= config_.size_fix_max_depth;
   m.size = m.raw_size;
-  if (fixed_size != nullptr) m.size = *fixed_size;
+  m.own_size = m.raw_size;
   const bool round = config_.max_round_footprint <= 0.f ||
                      std::max(m.raw_size.x(), m.raw_size.y()) <= config_.max_round_footprint;
+  if (config_.correct_near_surface_bias && round) {
+    const float footprint = std::max(m.raw_size.x(), m.raw_size.y());
+    m.own_size.x() = footprint;
+    m.own_size.y() = footprint;
+  }
+  if (fixed_size != nullptr) m.size = *fixed_size;
   if (config_.correct_near_surface_bias && round) {
     if (fixed_size == nullptr) {
       // Depth sees only the near surface, so the extent along the ray is too small. Assume a
@@ -122,6 +129,10 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.out.last_seen = stamp;
   t.kf.reset(Eigen::Vector4f(m.center.x(), m.center.y(), 0.f, 0.f), config_.kalman);
   t.voter.reset();
+  t.dynamic_streak = 0;
+  t.every_vote_dynamic = true;
+  t.was_dynamic = false;
+  t.label = false;
   t.positions.clear();
   t.positions.push(m.center.head<2>(), config_.history_length + 1);
   t.edges.clear();
@@ -135,7 +146,11 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   const bool counts = m.in_view && m.near_enough;
   t.in_view_frames = counts ? 1 : 0;
   t.size_sum = counts ? m.size : Eigen::Vector3f::Zero();
-  if (t.in_view_frames >= config_.size_fix_frames) t.out.size_fixed = true;
+  if (t.in_view_frames >= config_.size_fix_frames) {
+    t.out.size_fixed = true;
+    t.in_view_frames = 0;
+    t.size_sum.setZero();
+  }
 }
 
 void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
@@ -173,6 +188,22 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
     if (t.in_view_frames >= config_.size_fix_frames) {
       t.size = t.size_sum / static_cast<float>(t.in_view_frames);
       t.out.size_fixed = true;
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
+    }
+  } else if (config_.size_fix_growth) {
+    // Same windows as above, on the sizes this detection alone gives.
+    if (m.in_view && m.near_enough) {
+      ++t.in_view_frames;
+      t.size_sum += m.own_size;
+    } else if (!m.in_view) {
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
+    }
+    if (t.in_view_frames >= config_.size_fix_frames) {
+      t.size = t.size.cwiseMax(t.size_sum / static_cast<float>(t.in_view_frames));
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
     }
   }
 
@@ -185,11 +216,21 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   const std::size_t n = t.positions.size();
   for (std::size_t i = 0; i < n; ++i) ordered[i] = t.positions.at_age(n - 1 - i);
   float c_con = 0.f;
-  if (continuity_score(ordered.data(), n, config_.continuity.displacement_frames, &c_con)) {
+  std::size_t span = config_.continuity.displacement_frames;
+  const std::size_t early_span = config_.early_displacement_frames;
+  if (n < span + 2 && early_span > 0 && n >= 2 * early_span + 1) span = early_span;
+  if (continuity_score(ordered.data(), n, span, &c_con)) {
     t.out.continuity = c_con;
     const float speed = t.kf.velocity().norm();
     const ContinuityFilter filter(config_.continuity);
-    t.voter.push(filter.vote(speed, c_con, t.size) && moves_rigidly(t), config_.continuity);
+    const bool vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t);
+    t.voter.push(vote, config_.continuity);
+    t.dynamic_streak = vote ? t.dynamic_streak + 1 : 0;
+    if (!vote) t.every_vote_dynamic = false;
+    const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
+                       (t.every_vote_dynamic || t.was_dynamic);
+    t.label = t.voter.dynamic() || early;
+    if (t.label) t.was_dynamic = true;
   }
 }
 
@@ -265,6 +306,10 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     Track& t = tracks_[s];
     if (!t.active || track_used[s]) continue;
     ++t.out.missed_frames;
+    // An early label needs an unbroken run of votes: a gap withdraws it.
+    t.dynamic_streak = 0;
+    if (t.voter.votes() > 0) t.every_vote_dynamic = false;
+    t.label = t.voter.dynamic();
     if (t.out.missed_frames > config_.max_missed_frames) {
       t.active = false;
       ++dropped_tracks_;
@@ -302,7 +347,7 @@ void Tracker::publish() noexcept {
     t.out.box = Box3::from_center_size(Eigen::Vector3f(p.x(), p.y(), t.z_center), t.size);
     t.out.velocity = Eigen::Vector3f(v.x(), v.y(), 0.f);
     t.out.speed = v.norm();
-    t.out.dynamic = t.voter.dynamic();
+    t.out.dynamic = t.label;
     t.out.dynamic_votes = static_cast<std::uint32_t>(t.voter.dynamic_votes());
     t.out.votes = static_cast<std::uint32_t>(t.voter.votes());
     output_[output_count_] = t.out;

@@ -149,5 +149,20 @@ TEST(Replay, BadParameterValueIsRefused) {
   EXPECT_NE(r.output.find("tracker.overlap_threshold"), std::string::npos) << r.output;
 }
 
+// The motion model is spelled "cv" or "imm"; anything else, and IMM noises that are not
+// positive, are refused before any frame is replayed.
+TEST(Replay, BadMotionModelIsRefused) {
+  const std::string params = ::testing::TempDir() + "bad_model.yaml";
+  std::ofstream(params) << "tracker:\n  kalman:\n    model: spline\n";
+  RunResult r =
+      run_replay(corridor_sequence() + " --out " + fresh_dir("m_out") + " --params " + params);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("bad value for 'tracker.kalman.model'"), std::string::npos) << r.output;
+  std::ofstream(params) << "tracker:\n  kalman:\n    imm:\n      q_turn_rate: -1\n";
+  r = run_replay(corridor_sequence() + " --out " + fresh_dir("m_out2") + " --params " + params);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("tracker"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace dynamap::tools

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -334,6 +335,117 @@ TEST(TrackerLabels, BoxThatOnlyShrinksVotesStaticOneThatTranslatesVotesDynamic) 
   EXPECT_GE(run_target(*walker, 75, translating).first_dynamic, 0);
 }
 
+// A walker at detector noise (1.6 cm) seen on every frame: the early label comes after the first
+// 8 votes, which start with 2 * 3 + 1 states (frame 13); without it the T_c rule needs frame 26.
+TEST(TrackerLabels, CleanWalkerIsLabelledEarly) {
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    for (const bool early : {true, false}) {
+      TrackerConfig config;
+      if (!early) {
+        config.early_votes = 0;
+        config.early_displacement_frames = 0;
+      }
+      auto tracker = make_tracker(config);
+      std::mt19937 rng(seed);
+      std::normal_distribution<float> noise(0.f, 0.016f);
+      const Eigen::Vector3f start(4.f, -1.5f, 0.85f);
+      const Eigen::Vector3f v(0.f, 1.f, 0.f);
+      const LabelRun run = run_target(*tracker, 45, [&](int f, Box3* box) {
+        if (box != nullptr) return Eigen::Vector3f();
+        return Eigen::Vector3f(start + v * (f / 30.f) +
+                               Eigen::Vector3f(noise(rng), noise(rng), 0.f));
+      });
+      if (early) {
+        EXPECT_EQ(run.first_dynamic, 13) << "seed " << seed;
+      } else {
+        EXPECT_GE(run.first_dynamic, 26) << "seed " << seed;
+      }
+      EXPECT_TRUE(tracker->obstacle(0).dynamic);
+    }
+  }
+}
+
+// The same walker detected on only three frames of four (the wall pieces that pass a vote
+// flicker like that): no early label, only the T_c rule's, much later.
+TEST(TrackerLabels, FlickeringTrackGetsNoEarlyLabel) {
+  auto tracker = make_tracker();
+  Stamp stamp = 0;
+  int first_dynamic = -1;
+  for (int f = 0; f < 60; ++f) {
+    stamp += kFrame;
+    const Detection d = detection({4.f, -1.5f + f / 30.f, 0.85f});
+    const bool seen = f % 4 != 3;
+    ASSERT_EQ(tracker->update(&d, seen ? 1 : 0, camera_at(), stamp), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    if (tracker->obstacle(0).dynamic && first_dynamic < 0) first_dynamic = f;
+  }
+  EXPECT_GE(first_dynamic, 26);
+}
+
+// A walker who pauses loses the label (every vote static for a second) and, once walking again,
+// gets it back after `early_votes` consecutive dynamic votes instead of T_c of c.
+TEST(TrackerLabels, WalkerAfterAPauseIsRelabelledEarly) {
+  std::array<int, 2> relabel_frames{};
+  for (const std::size_t early : {std::size_t{8}, std::size_t{0}}) {
+    TrackerConfig config;
+    config.early_votes = early;
+    auto tracker = make_tracker(config);
+    Stamp stamp = 0;
+    float y = -1.5f;
+    int relabelled = -1;
+    for (int f = 0; f < 150; ++f) {
+      const bool paused = f >= 45 && f < 90;
+      if (!paused) y += 1.f / 30.f;
+      const Detection d = detection({4.f, y, 0.85f});
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+      ASSERT_EQ(tracker->size(), 1u);
+      const bool dynamic = tracker->obstacle(0).dynamic;
+      if (f == 44) {
+        EXPECT_TRUE(dynamic);
+      }
+      if (f == 89) {
+        EXPECT_FALSE(dynamic);
+      }
+      if (f >= 90 && dynamic && relabelled < 0) relabelled = f - 90;
+    }
+    ASSERT_GE(relabelled, 0);
+    relabel_frames[early > 0 ? 0 : 1] = relabelled;
+  }
+  // The first dynamic vote needs the speed (> 0.4 m/s) and the 10-frame displacements back;
+  // from there 8 votes instead of 16.
+  EXPECT_LE(relabel_frames[0] + 6, relabel_frames[1])
+      << "early " << relabel_frames[0] << " T_c rule " << relabel_frames[1];
+}
+
+// A walker stepping out from behind a pillar: for the first 10 frames only 0.2 m of it is seen
+// (in view: the pillar is no image border), then all 0.5 m. The size frozen from the occluded
+// frames is raised by the first full window, and the centre moves to the true one.
+TEST(TrackerSize, SizeGrowsAfterAnOcclusion) {
+  for (const bool growth : {true, false}) {
+    TrackerConfig config;
+    config.size_fix_growth = growth;
+    auto tracker = make_tracker(config);
+    Stamp stamp = 0;
+    for (int f = 0; f < 40; ++f) {
+      // Cylinder of radius 0.25 at (4, 0): the near surface is x in [3.75, 3.95].
+      const float width = f < 10 ? 0.2f : 0.5f;
+      const Eigen::Vector3f size(0.2f, width, 1.7f);
+      const Detection d = detection({3.85f, 0.f, 0.85f}, size);
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+      ASSERT_EQ(tracker->size(), 1u);
+    }
+    const TrackedObstacle& o = tracker->obstacle(0);
+    EXPECT_TRUE(o.size_fixed);
+    if (growth) {
+      EXPECT_NEAR(o.box.size().x(), 0.5f, 1e-3f);
+      EXPECT_NEAR(o.box.center().x(), 4.0f, 0.01f);
+    } else {
+      EXPECT_NEAR(o.box.size().x(), 0.2f, 1e-3f);
+      EXPECT_LT(o.box.center().x(), 3.9f);
+    }
+  }
+}
+
 // An elongated box (a 2 m wall piece seen face on) is not round: its missing depth is unknown, so
 // the tracker keeps the visible face's centre instead of pushing it 1 m behind the wall.
 TEST(TrackerBias, ElongatedBoxKeepsItsCentre) {
@@ -368,6 +480,7 @@ TEST(TrackerBias, ElongatedBoxKeepsItsCentre) {
 TEST(TrackerSize, FrozenWhenFullyInViewNotWhenClipped) {
   TrackerConfig config;
   config.size_fix_frames = 10;
+  config.size_fix_growth = false;  // the freezing itself; growth: SizeGrowsAfterAnOcclusion
   auto in_view = make_tracker(config);
   auto clipped = make_tracker(config);
   Stamp stamp = 0;

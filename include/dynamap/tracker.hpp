@@ -78,6 +78,25 @@ struct TrackerConfig {
   /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
   /// visible face's centre is kept. 0 disables the limit.
   float max_round_footprint = 1.0f;
+  /// Early label (0 disables): a track is labelled dynamic as soon as its first `early_votes`
+  /// votes were all dynamic, cast on consecutive frames (no missed frame in between), instead of
+  /// waiting for T_c of c votes. A walker in view is detected every frame and votes dynamic from
+  /// its first vote; the wall pieces that pass a vote flicker in and out (measured:
+  /// docs/tracker.md). The label is provisional: a static vote or a missed frame before the
+  /// T_c rule holds withdraws it. A track that was dynamic before (a walker after a pause) may be
+  /// re-labelled the same way by `early_votes` consecutive dynamic votes.
+  std::size_t early_votes = 8;
+  /// While the history is shorter than the n + 2 states the continuity filter needs, vote with
+  /// displacements this many frames apart once 2 * early_displacement_frames + 1 states exist
+  /// (0: no votes before n + 2 states). At 1 m/s, 3 frames are 10 cm, six times the
+  /// detector's 1.6 cm centre noise, so the direction of each displacement is still clear.
+  std::size_t early_displacement_frames = 3;
+  /// After the size is frozen, keep averaging k' in-view frames at a time and raise the frozen
+  /// size to a larger window mean. A nearer occluder (a pillar the walker steps out from behind)
+  /// only ever shrinks the visible extent, and the "fully in view" test sees the image border
+  /// only, so a size frozen during a partial occlusion was too small for good (env_a: 0.18 m for
+  /// a 0.53 m walker, its centre 0.17 m short). The size never shrinks once frozen.
+  bool size_fix_growth = true;
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -132,7 +151,7 @@ class Tracker {
  private:
   struct Track {
     TrackedObstacle out;
-    ConstantVelocityKalman kf;
+    TrackFilter kf;
     DynamicVoter voter;
     HistoryRing<Eigen::Vector2f, kMaxTrackHistory> positions;  // measured, bias-corrected
     HistoryRing<Box3, kMaxBoxHistory> boxes;
@@ -143,11 +162,16 @@ class Tracker {
     Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
     std::size_t in_view_frames = 0;
+    std::size_t dynamic_streak = 0;  // consecutive dynamic votes on consecutive frames
+    bool every_vote_dynamic = true;  // no static vote and no missed frame since the first vote
+    bool was_dynamic = false;        // labelled dynamic at some time
+    bool label = false;
     bool active = false;
   };
   struct Measurement {  // a detection after bias correction
     Eigen::Vector3f center;
     Eigen::Vector3f size;      // estimated full size
+    Eigen::Vector3f own_size;  // full size estimated from this detection alone (not the fixed one)
     Eigen::Vector3f raw_size;  // the detection box's own size
     Eigen::Vector4f edges;     // the detection box's top-view min x, min y, max x, max y
     bool in_view;

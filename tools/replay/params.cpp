@@ -45,6 +45,28 @@ Param make_param(const char* key, Access access) {
   return p;
 }
 
+// tracker.kalman.model is an enum: spelled "cv" (the original filter) or "imm" in YAML.
+Param motion_model_param() {
+  Param p;
+  p.key = "tracker.kalman.model";
+  p.set = [](const YAML::Node& n, PipelineConfig& c) {
+    std::string v;
+    if (!YAML::convert<std::string>::decode(n, v)) return false;
+    if (v == "cv") {
+      c.tracker.kalman.model = MotionModel::kConstantVelocity;
+    } else if (v == "imm") {
+      c.tracker.kalman.model = MotionModel::kTurnImm;
+    } else {
+      return false;
+    }
+    return true;
+  };
+  p.get = [](const PipelineConfig& c) {
+    return std::string(c.tracker.kalman.model == MotionModel::kTurnImm ? "imm" : "cv");
+  };
+  return p;
+}
+
 #define DYNAMAP_PARAM(path) make_param(#path, [](PipelineConfig& c) { return &c.path; })
 
 const std::vector<Param>& params() {
@@ -92,6 +114,14 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.kalman.q_velocity),
       DYNAMAP_PARAM(tracker.kalman.r_position),
       DYNAMAP_PARAM(tracker.kalman.r_velocity),
+      motion_model_param(),
+      DYNAMAP_PARAM(tracker.kalman.imm.q_accel_straight),
+      DYNAMAP_PARAM(tracker.kalman.imm.q_accel_turn),
+      DYNAMAP_PARAM(tracker.kalman.imm.q_turn_rate),
+      DYNAMAP_PARAM(tracker.kalman.imm.p0_turn_rate),
+      DYNAMAP_PARAM(tracker.kalman.imm.max_turn_rate),
+      DYNAMAP_PARAM(tracker.kalman.imm.mean_straight_time),
+      DYNAMAP_PARAM(tracker.kalman.imm.mean_turn_time),
       DYNAMAP_PARAM(tracker.continuity.displacement_frames),
       DYNAMAP_PARAM(tracker.continuity.continuity_threshold),
       DYNAMAP_PARAM(tracker.continuity.min_speed),
@@ -111,6 +141,9 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.correct_near_surface_bias),
       DYNAMAP_PARAM(tracker.max_extent_change_ratio),
       DYNAMAP_PARAM(tracker.max_round_footprint),
+      DYNAMAP_PARAM(tracker.early_votes),
+      DYNAMAP_PARAM(tracker.early_displacement_frames),
+      DYNAMAP_PARAM(tracker.size_fix_growth),
       DYNAMAP_PARAM(cleaner.frames),
       DYNAMAP_PARAM(cleaner.inflation),
       DYNAMAP_PARAM(cleaner.z_margin),

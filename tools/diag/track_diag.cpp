@@ -1,0 +1,132 @@
+// dynamap-track-diag: why is an obstacle-frame missed, why is a velocity wrong? Replays a
+// simulated sequence through the Pipeline (like dynamap-replay) and writes one CSV row per track
+// and frame with the tracker's internals (votes, continuity, age, missed frames, size fixing)
+// next to the nearest ground-truth obstacle (id, distance, velocity, visible fraction, depth
+// ahead of the camera, turn rate). Host-only diagnosis tool: heap, iostreams and exceptions are
+// fine here.
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/obstacles.hpp"
+#include "common/png_io.hpp"
+#include "common/sequence.hpp"
+#include "common/text_io.hpp"
+#include "dynamap/pipeline.hpp"
+#include "params.hpp"
+
+namespace dynamap::tools {
+namespace {
+
+Pose to_pose(const PoseD& p) {
+  Pose r;
+  r.translation = p.translation.cast<float>();
+  r.rotation = p.rotation.cast<float>().normalized();
+  return r;
+}
+
+int run(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << "usage: dynamap-track-diag SEQ [--params FILE] > diag.csv\n";
+    return 2;
+  }
+  const std::string seq_dir = argv[1];
+  std::string params;
+  for (int i = 2; i + 1 < argc; ++i) {
+    if (std::string(argv[i]) == "--params") params = argv[i + 1];
+  }
+  const Sequence seq = read_sequence(seq_dir);
+  PipelineConfig config;
+  const CameraModel& cam = seq.camera;
+  config.camera.fx = static_cast<float>(cam.fx);
+  config.camera.fy = static_cast<float>(cam.fy);
+  config.camera.cx = static_cast<float>(cam.cx);
+  config.camera.cy = static_cast<float>(cam.cy);
+  config.camera.width = cam.width;
+  config.camera.height = cam.height;
+  config.camera.depth_scale = static_cast<float>(1.0 / cam.depth_factor);
+  if (!params.empty()) {
+    const std::string err = apply_params_file(params, config);
+    if (!err.empty()) throw ToolError(err);
+  }
+  auto pipeline = std::make_unique<Pipeline>();
+  ConfigError ce;
+  if (!ok(pipeline->init(config, &ce))) throw ToolError(std::string("config: ") + ce.field);
+  std::map<std::string, std::vector<ObstacleRecord>> truth;  // by stamp text
+  for (const ObstacleRecord& r : read_obstacles(join_path(seq_dir, "obstacles.txt"))) {
+    truth[r.stamp_text].push_back(r);
+  }
+  // Previous frame's ground-truth velocity per obstacle id, for the turn rate.
+  std::map<int, Eigen::Vector2d> previous_velocity;
+
+  std::cout << "frame,id,x,y,vx,vy,speed,continuity,dynamic,votes,dynamic_votes,age,hits,missed,"
+               "size_fixed,sx,sy,gt_id,gt_dist,gt_vx,gt_vy,gt_visible,gt_depth,gt_turn_rate\n";
+  auto out = std::make_unique<FrameOutput>();
+  for (std::size_t f = 0; f < seq.frames.size(); ++f) {
+    const SequenceFrame& sf = seq.frames[f];
+    const Image16 depth = load_depth(seq, sf);
+    Frame frame;
+    frame.stamp = static_cast<Stamp>(std::llround(sf.stamp * 1e9));
+    frame.T_map_camera = to_pose(sf.pose);
+    frame.depth = DepthView{depth.pixels.data(), depth.width, depth.height,
+                            depth.width * static_cast<int>(sizeof(std::uint16_t))};
+    if (!ok(pipeline->process(frame, *out))) continue;
+    const std::vector<ObstacleRecord>& listed = truth[sf.stamp_text];
+    std::map<int, double> turn_rate;
+    for (const ObstacleRecord& r : listed) {
+      const Eigen::Vector2d v = r.velocity.head<2>();
+      const auto it = previous_velocity.find(r.id);
+      double w = 0.0;
+      if (it != previous_velocity.end() && v.norm() > 0.1 && it->second.norm() > 0.1) {
+        const Eigen::Vector2d a = it->second;
+        w = std::atan2(a.x() * v.y() - a.y() * v.x(), a.dot(v)) * 30.0;
+      }
+      turn_rate[r.id] = w;
+      previous_velocity[r.id] = v;
+    }
+    const Eigen::Matrix3d Rt = sf.pose.rotation.toRotationMatrix().transpose();
+    for (std::size_t k = 0; k < out->num_obstacles; ++k) {
+      const TrackedObstacle& ob = out->obstacles[k];
+      const Eigen::Vector2d c = ob.box.center().head<2>().cast<double>();
+      const ObstacleRecord* near = nullptr;
+      double best = 1e9;
+      for (const ObstacleRecord& r : listed) {
+        const double d = (r.center.head<2>() - c).norm();
+        if (d < best) {
+          best = d;
+          near = &r;
+        }
+      }
+      const Eigen::Vector3f sz = ob.box.size();
+      std::cout << f << "," << ob.id << "," << c.x() << "," << c.y() << "," << ob.velocity.x()
+                << "," << ob.velocity.y() << "," << ob.speed << "," << ob.continuity << ","
+                << ob.dynamic << "," << ob.votes << "," << ob.dynamic_votes << "," << ob.age << ","
+                << ob.hits << "," << ob.missed_frames << "," << ob.size_fixed << "," << sz.x()
+                << "," << sz.y() << ",";
+      if (near != nullptr) {
+        const double depth_ahead = (Rt * (near->center - sf.pose.translation)).z();
+        std::cout << near->id << "," << best << "," << near->velocity.x() << ","
+                  << near->velocity.y() << "," << near->visible << "," << depth_ahead << ","
+                  << turn_rate[near->id] << "\n";
+      } else {
+        std::cout << "-1,-1,0,0,0,0,0\n";
+      }
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace dynamap::tools
+
+int main(int argc, char** argv) {
+  try {
+    return dynamap::tools::run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "dynamap-track-diag: " << e.what() << "\n";
+    return 1;
+  }
+}
