@@ -125,7 +125,8 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
 struct PathPrediction {
   std::uint32_t track_id = 0;
   std::size_t num_paths = 0;
-  std::size_t chosen = 0;                        ///< index of the most likely path
+  /// index of the most likely path (Markov with choose_free: of the free ones, if any is free)
+  std::size_t chosen = 0;
   std::array<float, kMaxPaths> probability{};    ///< per path, sums to 1
   std::array<float, kMaxPaths> free_distance{};  ///< per path, m (== path_length when free)
   /// per path, m before the first voxel not observed free (== free_distance when not measured)
