@@ -1,6 +1,8 @@
 // Prediction time per frame: 10 dynamic obstacles walking through a cluttered static map
-// (pillars and wall segments in a 12 m x 12 m room, real OccupancyMap), Markov predictor with
-// l = 5 and l = 15, and the linear baseline. One iteration = one frame = predict() for all 10.
+// (pillars and wall segments in a 12 m x 12 m room whose air is observed free, real
+// OccupancyMap), Markov predictor with l = 5 and l = 15, with and without the observed-free
+// sweep (unknown_weight < 1), and the linear baseline. One iteration = one frame = predict() for
+// all 10.
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -46,8 +48,17 @@ const Scene& scene() {
     std::uniform_real_distribution<float> pos(-6.0f, 6.0f);
     std::uniform_real_distribution<float> ang(-3.14159f, 3.14159f);
     std::uniform_real_distribution<float> spd(0.6f, 1.6f);
-    // Room walls, 60 pillars (0.3 m), 12 wall segments (1.5 m), all floor to 2.4 m.
+    // The room's air observed free (as the camera would leave it), so the non-free query of
+    // unknown_weight < 1 has free space to walk; then room walls, 60 pillars (0.3 m), 12 wall
+    // segments (1.5 m), all floor to 2.4 m.
     const float h = 2.4f;
+    for (float x = -6.05f; x < 6.1f; x += 0.1f) {
+      for (float y = -6.05f; y < 6.1f; y += 0.1f) {
+        for (float z = 0.05f; z < h; z += 0.1f) {
+          if (!ok(sc->map->set_log_odds(Eigen::Vector3f(x, y, z), -2.0f))) std::abort();
+        }
+      }
+    }
     fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {6.1f, -6.0f, h}, &sc->occupied_voxels);
     fill_box(*sc->map, {-6.1f, 6.0f, 0.f}, {6.1f, 6.1f, h}, &sc->occupied_voxels);
     fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {-6.0f, 6.1f, h}, &sc->occupied_voxels);
@@ -96,6 +107,13 @@ struct CountingMap {
     voxel_lengths += static_cast<double>(((h ? *hit : b) - a).lpNorm<1>() / map->resolution());
     return h;
   }
+  bool first_non_free_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                 Eigen::Vector3f* hit) const noexcept {
+    const bool h = map->first_non_free_on_segment(a, b, hit);
+    queries += 1;
+    voxel_lengths += static_cast<double>(((h ? *hit : b) - a).lpNorm<1>() / map->resolution());
+    return h;
+  }
 };
 
 template <class Predictor>
@@ -111,12 +129,14 @@ void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto
   state.counters["voxels/frame"] = counting.voxel_lengths / kFrames;  // ~DDA steps (L1 length)
 }
 
-// Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7).
+// Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7),
+// unknown_weight in percent (100 = default, no second sweep).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
   MarkovPredictorConfig cfg;
   cfg.paths.num_paths = static_cast<std::size_t>(state.range(0));
   cfg.clearance.max_lines = static_cast<std::size_t>(state.range(1));
+  cfg.unknown_weight = static_cast<float>(state.range(2)) / 100.0f;
   auto mp = std::make_unique<MarkovPredictor>();
   if (!ok(mp->init(cfg))) {
     state.SkipWithError("init failed");
@@ -142,11 +162,12 @@ void BM_MarkovPredictor(benchmark::State& state) {
   state.counters["occupied_voxels"] = static_cast<double>(sc.occupied_voxels);
 }
 BENCHMARK(BM_MarkovPredictor)
-    ->ArgNames({"l", "max_lines"})
-    ->Args({5, 9})
-    ->Args({15, 9})
-    ->Args({5, 3})
-    ->Args({15, 3})
+    ->ArgNames({"l", "max_lines", "unknown_pct"})
+    ->Args({5, 9, 100})
+    ->Args({15, 9, 100})
+    ->Args({5, 3, 100})
+    ->Args({15, 3, 100})
+    ->Args({5, 9, 90})
     ->Unit(benchmark::kMicrosecond);
 
 void BM_LinearPredictor(benchmark::State& state) {

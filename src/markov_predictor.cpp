@@ -56,6 +56,9 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
   if (!std::isfinite(c.straight_return) || c.straight_return < 0.0f || c.straight_return >= 1.0f) {
     return Status::kInvalidArgument;
   }
+  if (!std::isfinite(c.unknown_weight) || c.unknown_weight < 0.0f || c.unknown_weight > 1.0f) {
+    return Status::kInvalidArgument;
+  }
 
   config_ = c;
   library_ = lib;
@@ -131,23 +134,27 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
   out->num_paths = l;
   out->free_mask = 0;
   out->any_free = false;
+  const bool observed = config_.unknown_weight < 1.0f;
+  const float w = config_.unknown_weight;
+  std::array<float, kMaxPaths> dist{};  // Dist_i of P_env
   float max_dist = 0.0f;
   for (std::size_t i = 0; i < l; ++i) {
     library_.sample(i, origin, obstacle.velocity, &paths_[i]);
-    const PathClearance c = sweep_path(map, paths_[i], obstacle, config_.clearance);
+    const PathClearance c = sweep_path(map, paths_[i], obstacle, config_.clearance, observed);
     out->free_distance[i] = c.free_distance;
+    out->observed_distance[i] = c.observed_distance;
     if (c.free) {
       out->free_mask |= 1u << i;
       out->any_free = true;
     }
-    max_dist = i == 0 ? c.free_distance : std::fmax(max_dist, c.free_distance);
+    dist[i] = c.observed_distance + w * (c.free_distance - c.observed_distance);
+    max_dist = i == 0 ? dist[i] : std::fmax(max_dist, dist[i]);
   }
 
   // P_env = softmax(beta * Dist), shifted by the maximum so the largest term is exactly 1.
   Belief env{};
   for (std::size_t i = 0; i < l; ++i) {
-    env[i] = std::exp(static_cast<double>(config_.beta) *
-                      static_cast<double>(out->free_distance[i] - max_dist));
+    env[i] = std::exp(static_cast<double>(config_.beta) * static_cast<double>(dist[i] - max_dist));
   }
   const bool env_ok = normalise(l, &env);  // sum >= 1 by construction
   if (!env_ok) {
@@ -175,19 +182,33 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
   }
   if (belief != nullptr) *belief = post;  // nullptr only if the table were full (it cannot be)
 
-  // Most likely path; exact ties go to the one nearer the straight path.
+  // Most likely path (among the free ones when choose_free and any is free). Exact ties go to
+  // the one nearer the straight path, then (mirror pairs) to the one seen free for longer.
   const float centre = library_.center_index();
-  std::size_t best = 0;
-  for (std::size_t i = 1; i < l; ++i) {
+  const bool only_free = config_.choose_free && out->any_free;
+  std::size_t best = l;
+  for (std::size_t i = 0; i < l; ++i) {
+    if (only_free && !out->path_free(i)) continue;
+    if (best == l) {
+      best = i;
+      continue;
+    }
+    const float off_i = std::fabs(static_cast<float>(i) - centre);
+    const float off_best = std::fabs(static_cast<float>(best) - centre);
     const bool better = post[i] > post[best];
-    const bool tie_nearer =
-        post[i] == post[best] &&
-        std::fabs(static_cast<float>(i) - centre) < std::fabs(static_cast<float>(best) - centre);
-    if (better || tie_nearer) best = i;
+    const bool tie = post[i] == post[best];
+    const bool tie_nearer = tie && off_i < off_best;
+    const bool tie_seen =
+        tie && off_i == off_best && out->observed_distance[i] > out->observed_distance[best];
+    if (better || tie_nearer || tie_seen) best = i;
   }
+  if (best == l) best = 0;  // l >= 1, so only reached if no path was considered (cannot happen)
   for (std::size_t i = 0; i < kMaxPaths; ++i) {
     out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;
-    if (i >= l) out->free_distance[i] = 0.0f;
+    if (i >= l) {
+      out->free_distance[i] = 0.0f;
+      out->observed_distance[i] = 0.0f;
+    }
   }
   out->chosen = best;
   out->failed = !out->path_free(best);

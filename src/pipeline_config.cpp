@@ -90,6 +90,9 @@ ConfigError validate(const PipelineConfig& c) noexcept {
             "predictor.paths.num_paths", "must be in 1..kMaxPaths");
   k.require(std::isfinite(c.predictor.beta) && c.predictor.beta >= 0.f, "predictor.beta",
             "must be finite and >= 0");
+  k.require(std::isfinite(c.predictor.unknown_weight) && c.predictor.unknown_weight >= 0.f &&
+                c.predictor.unknown_weight <= 1.f,
+            "predictor.unknown_weight", "must be in [0, 1]");
 
   // Timing budgets.
   k.require(c.budgets.max_pixel_stride >= 1, "budgets.max_pixel_stride", "must be >= 1");

@@ -67,60 +67,76 @@ std::size_t chord_end(const PathSamples& path, std::size_t k, std::size_t n,
   }
   return m;
 }
-}  // namespace
 
-PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
-                         const ObstacleState& obstacle, const ClearanceConfig& clearance) noexcept {
-  // Lateral offsets of the swept lines and the heights they run at.
+/// The swept lines of one obstacle: lateral offsets, heights, and the own-body disc.
+struct SweepGeometry {
   std::array<float, kMaxClearanceLines> offset{};
-  const float r = obstacle.footprint_radius;
-  const std::size_t lines = clearance_lines(clearance, r);
-  for (std::size_t j = 0; j < lines; ++j) {
-    offset[j] =
-        lines == 1 ? 0.0f : -r + 2.0f * r * static_cast<float>(j) / static_cast<float>(lines - 1);
-  }
+  std::size_t lines = 1;
   std::array<float, kMaxHeightLevels> level{};
+  std::size_t levels = 1;
+  Eigen::Vector2f self_centre = Eigen::Vector2f::Zero();
+  float self_r = 0.0f;
+  float self_r2 = 0.0f;
+};
+
+SweepGeometry sweep_geometry(const ObstacleState& obstacle,
+                             const ClearanceConfig& clearance) noexcept {
+  SweepGeometry g;
+  const float r = obstacle.footprint_radius;
+  g.lines = clearance_lines(clearance, r);
+  for (std::size_t j = 0; j < g.lines; ++j) {
+    g.offset[j] = g.lines == 1
+                      ? 0.0f
+                      : -r + 2.0f * r * static_cast<float>(j) / static_cast<float>(g.lines - 1);
+  }
   const float lo = obstacle.position.z() - 0.5f * obstacle.height + clearance.ground_clearance;
   const float hi = obstacle.position.z() + 0.5f * obstacle.height;
-  std::size_t levels = std::min(clearance.height_levels, kMaxHeightLevels);
+  g.levels = std::min(clearance.height_levels, kMaxHeightLevels);
   if (hi <= lo) {
-    levels = 1;
-    level[0] = obstacle.position.z();
+    g.levels = 1;
+    g.level[0] = obstacle.position.z();
   } else {
-    const float step = (hi - lo) / static_cast<float>(levels);
-    for (std::size_t h = 0; h < levels; ++h) level[h] = lo + (static_cast<float>(h) + 0.5f) * step;
+    const float step = (hi - lo) / static_cast<float>(g.levels);
+    for (std::size_t h = 0; h < g.levels; ++h) {
+      g.level[h] = lo + (static_cast<float>(h) + 0.5f) * step;
+    }
   }
-
   // The obstacle's own body: not checked.
-  const Eigen::Vector2f self_centre = obstacle.position.head<2>();
-  const float self_r = clearance.self_margin > 0.0f ? r + clearance.self_margin : 0.0f;
-  const float self_r2 = self_r * self_r;
+  g.self_centre = obstacle.position.head<2>();
+  g.self_r = clearance.self_margin > 0.0f ? r + clearance.self_margin : 0.0f;
+  g.self_r2 = g.self_r * g.self_r;
+  return g;
+}
 
-  PathClearance result;
+/// Arc length along `path` before any swept line meets a voxel that `query` reports (the map's
+/// occupied query or its non-free one); the full length, and *free = true, when none does.
+template <class Query>
+float first_hit_distance(const Query& query, const PathSamples& path, const SweepGeometry& g,
+                         const ClearanceConfig& clearance, bool* free) noexcept {
+  *free = true;
   const std::size_t n = std::min(path.count, kMaxPathSamples);
-  if (n == 0) return result;
-  result.free_distance = path.arc_length[n - 1];
+  if (n == 0) return 0.0f;
   std::size_t k = 0;
   while (k + 1 < n) {
     const std::size_t m = chord_end(path, k, n, clearance.chord_tolerance);
     const Eigen::Vector2f n0(-path.tangent[k].y(), path.tangent[k].x());
     const Eigen::Vector2f n1(-path.tangent[m].y(), path.tangent[m].x());
     float first = 2.0f;  // fraction of this chord at the first hit; > 1 means none
-    for (std::size_t h = 0; h < levels; ++h) {
-      for (std::size_t j = 0; j < lines; ++j) {
-        const Eigen::Vector2f a2 = path.position[k] + offset[j] * n0;
-        const Eigen::Vector2f b2 = path.position[m] + offset[j] * n1;
-        const Eigen::Vector3f a(a2.x(), a2.y(), level[h]);
-        const Eigen::Vector3f b(b2.x(), b2.y(), level[h]);
+    for (std::size_t h = 0; h < g.levels; ++h) {
+      for (std::size_t j = 0; j < g.lines; ++j) {
+        const Eigen::Vector2f a2 = path.position[k] + g.offset[j] * n0;
+        const Eigen::Vector2f b2 = path.position[m] + g.offset[j] * n1;
+        const Eigen::Vector3f a(a2.x(), a2.y(), g.level[h]);
+        const Eigen::Vector3f b(b2.x(), b2.y(), g.level[h]);
         // Start where the line leaves the obstacle's own body; after a hit at fraction
         // `first`, the other lines only need to look before it.
-        const float t0 = self_r > 0.0f ? exit_fraction(a2, b2, self_centre, self_r2) : 0.0f;
+        const float t0 = g.self_r > 0.0f ? exit_fraction(a2, b2, g.self_centre, g.self_r2) : 0.0f;
         const float t1 = std::min(first, 1.0f);
         if (t0 >= t1) continue;
         const Eigen::Vector3f a_cut = t0 > 0.0f ? Eigen::Vector3f(a + t0 * (b - a)) : a;
         const Eigen::Vector3f b_cut = t1 < 1.0f ? Eigen::Vector3f(a + t1 * (b - a)) : b;
         Eigen::Vector3f hit;
-        if (!map.segment(a_cut, b_cut, &hit)) continue;
+        if (!query(a_cut, b_cut, &hit)) continue;
         const Eigen::Vector2f ab = b2 - a2;
         const float len2 = ab.squaredNorm();
         float f = 0.0f;
@@ -130,11 +146,34 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
       }
     }
     if (first <= 1.0f) {
-      result.free = false;
-      result.free_distance = path.arc_length[k] + first * (path.arc_length[m] - path.arc_length[k]);
-      return result;
+      *free = false;
+      return path.arc_length[k] + first * (path.arc_length[m] - path.arc_length[k]);
     }
     k = m;
+  }
+  return path.arc_length[n - 1];
+}
+}  // namespace
+
+PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
+                         const ObstacleState& obstacle, const ClearanceConfig& clearance,
+                         bool observed) noexcept {
+  const SweepGeometry g = sweep_geometry(obstacle, clearance);
+  PathClearance result;
+  result.free_distance =
+      first_hit_distance([&map](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                Eigen::Vector3f* hit) { return map.segment(a, b, hit); },
+                         path, g, clearance, &result.free);
+  result.observed_distance = result.free_distance;
+  if (observed && map.knows_unknown() && result.free_distance > 0.0f) {
+    // Same lines and chords; an occupied voxel is also non-free, so this sweep stops at or
+    // before the occupied one (the min only absorbs rounding of the hit fractions).
+    bool all_observed = true;
+    const float d =
+        first_hit_distance([&map](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                  Eigen::Vector3f* hit) { return map.non_free_segment(a, b, hit); },
+                           path, g, clearance, &all_observed);
+    result.observed_distance = std::min(d, result.free_distance);
   }
   return result;
 }

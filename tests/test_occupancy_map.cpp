@@ -693,8 +693,11 @@ TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
 #endif
 }
 
-/// The straightforward Amanatides-Woo walk, voxel by voxel through the public state() query.
-bool reference_first_occupied(const OccupancyMap& map, const Vec3& a, const Vec3& b, Vec3* hit) {
+/// The straightforward Amanatides-Woo walk, voxel by voxel through the public state() query:
+/// the first voxel whose state satisfies `stop`.
+template <class Stop>
+bool reference_first_where(const OccupancyMap& map, const Vec3& a, const Vec3& b, Vec3* hit,
+                           Occupancy* state, Stop&& stop) {
   const float res = map.resolution();
   const float inv = 1.f / res;
   std::int32_t idx[3], end[3], step[3], remaining[3];
@@ -719,8 +722,10 @@ bool reference_first_occupied(const OccupancyMap& map, const Vec3& a, const Vec3
     const Vec3 c((static_cast<float>(idx[0]) + 0.5f) * res,
                  (static_cast<float>(idx[1]) + 0.5f) * res,
                  (static_cast<float>(idx[2]) + 0.5f) * res);
-    if (map.state(c) == Occupancy::kOccupied) {
+    const Occupancy o = map.state(c);
+    if (stop(o)) {
       *hit = c;
+      *state = o;
       return true;
     }
     if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
@@ -734,6 +739,118 @@ bool reference_first_occupied(const OccupancyMap& map, const Vec3& a, const Vec3
       t_max[ax] += t_delta[ax];
     }
   }
+}
+
+bool reference_first_occupied(const OccupancyMap& map, const Vec3& a, const Vec3& b, Vec3* hit) {
+  Occupancy state = Occupancy::kUnknown;
+  return reference_first_where(map, a, b, hit, &state,
+                               [](Occupancy o) { return o == Occupancy::kOccupied; });
+}
+
+/// Lehmer-style generator shared by the random-segment tests.
+struct SegmentRng {
+  std::uint32_t state = 12345u;
+  float uniform(float lo, float hi) {
+    state = state * 1664525u + 1013904223u;
+    return lo + (hi - lo) * static_cast<float>(state >> 8) / 16777216.f;
+  }
+};
+
+/// An integrated room plus hand-placed thin obstacles, some far from anything integrated
+/// (isolated blocks), and a voxel set occupied then cleared again (its block holds no occupied
+/// voxel any more): free, unknown and occupied voxels in every arrangement.
+std::unique_ptr<OccupancyMap> segment_test_map(SegmentRng& rng) {
+  auto map = make_map(OccupancyMapConfig{});
+  const CameraIntrinsics cam = small_camera(320, 240);
+  const Scene scene = regression_room();
+  for (int f = 0; f < 8; ++f) {
+    const Pose pose = make_pose(Vec3(-1.f + 0.2f * static_cast<float>(f), 0.3f, 1.2f),
+                                0.8f * static_cast<float>(f));
+    const DepthImage img = render(scene, cam, pose);
+    EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs),
+              Status::kOk);
+  }
+  for (int i = 0; i < 40; ++i) {
+    const Vec3 p(rng.uniform(-9.f, 9.f), rng.uniform(-9.f, 9.f), rng.uniform(-1.f, 4.f));
+    EXPECT_EQ(map->set_log_odds(p, 2.f), Status::kOk);
+  }
+  EXPECT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), 2.f), Status::kOk);
+  EXPECT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), -1.f), Status::kOk);
+  EXPECT_GT(map->clear_box(Box3{Vec3(2.3f, 0.8f, 0.f), Vec3(3.0f, 1.5f, 1.0f)}, 1u << 20,
+                           [](OccupancyMap::VoxelKey, const Vec3&) {}),
+            0u);
+  return map;
+}
+
+TEST(OccupancyMap, NonFreeQueryMatchesReferenceWalk) {
+  SegmentRng rng;
+  auto map = segment_test_map(rng);
+  std::size_t unknown = 0, occupied = 0, free = 0;
+  for (int i = 0; i < 20000; ++i) {
+    Vec3 a(rng.uniform(-6.f, 6.f), rng.uniform(-6.f, 6.f), rng.uniform(-0.5f, 3.f));
+    // Short segments (most start in observed space, so many end before any non-free voxel),
+    // and every eighth one long.
+    const float reach = i % 8 == 0 ? 8.f : 1.5f;
+    Vec3 b = a + Vec3(rng.uniform(-reach, reach), rng.uniform(-reach, reach),
+                      rng.uniform(-0.3f * reach, 0.3f * reach));
+    if (i % 8 == 3) b.z() = a.z();
+    if (i % 8 == 5) b = a;
+    Vec3 want(0, 0, 0), got(-1, -1, -1);
+    Occupancy want_state = Occupancy::kFree, got_state = Occupancy::kFree;
+    const bool w = reference_first_where(*map, a, b, &want, &want_state,
+                                         [](Occupancy o) { return o != Occupancy::kFree; });
+    const bool g = map->first_non_free_on_segment(a, b, &got, &got_state);
+    ASSERT_EQ(g, w) << "segment " << i << ": " << a.transpose() << " -> " << b.transpose();
+    if (!w) {
+      ++free;
+      continue;
+    }
+    ASSERT_EQ(got, want) << "segment " << i;
+    ASSERT_EQ(got_state, want_state) << "segment " << i;
+    (want_state == Occupancy::kOccupied ? occupied : unknown)++;
+  }
+  std::printf("[ segments ] %zu free, %zu end at unknown, %zu at occupied\n", free, unknown,
+              occupied);
+  // Every outcome is exercised often enough for the comparison to mean something.
+  EXPECT_GT(free, 1000u);
+  EXPECT_GT(unknown, 1000u);
+  EXPECT_GT(occupied, 500u);
+}
+
+TEST(OccupancyMap, NonFreeQueryBasics) {
+  auto map = make_map(OccupancyMapConfig{});
+  Vec3 hit;
+  Occupancy state = Occupancy::kFree;
+  // Nothing observed: the first voxel is already unknown.
+  ASSERT_TRUE(
+      map->first_non_free_on_segment(Vec3(0.02f, 0.03f, 1.01f), Vec3(2.f, 0.f, 1.f), &hit, &state));
+  EXPECT_EQ(state, Occupancy::kUnknown);
+  EXPECT_TRUE(hit.isApprox(Vec3(0.05f, 0.05f, 1.05f)));
+  // A free corridor x in [0, 3) at one voxel row; occupied at x = 1.55 later.
+  for (int i = 0; i < 30; ++i) {
+    ASSERT_EQ(map->set_log_odds(Vec3(0.05f + 0.1f * static_cast<float>(i), 0.05f, 1.05f), -2.f),
+              Status::kOk);
+  }
+  EXPECT_FALSE(map->first_non_free_on_segment(Vec3(0.01f, 0.05f, 1.05f), Vec3(2.99f, 0.05f, 1.05f),
+                                              &hit, &state));
+  EXPECT_FALSE(
+      map->first_occupied_on_segment(Vec3(0.01f, 0.05f, 1.05f), Vec3(3.5f, 0.05f, 1.05f), &hit));
+  ASSERT_TRUE(map->first_non_free_on_segment(Vec3(0.01f, 0.05f, 1.05f), Vec3(3.5f, 0.05f, 1.05f),
+                                             &hit, &state));
+  EXPECT_EQ(state, Occupancy::kUnknown);
+  EXPECT_TRUE(hit.isApprox(Vec3(3.05f, 0.05f, 1.05f)));
+  ASSERT_EQ(map->set_log_odds(Vec3(1.55f, 0.05f, 1.05f), 2.f), Status::kOk);
+  ASSERT_TRUE(map->first_non_free_on_segment(Vec3(0.01f, 0.05f, 1.05f), Vec3(3.5f, 0.05f, 1.05f),
+                                             &hit, nullptr));
+  EXPECT_TRUE(hit.isApprox(Vec3(1.55f, 0.05f, 1.05f)));
+  // Reversed: from x = 2.95 towards the origin the occupied voxel is met first too.
+  ASSERT_TRUE(map->first_non_free_on_segment(Vec3(2.95f, 0.05f, 1.05f), Vec3(0.01f, 0.05f, 1.05f),
+                                             nullptr, &state));
+  EXPECT_EQ(state, Occupancy::kOccupied);
+  // Outside the key range nothing was ever observed.
+  ASSERT_TRUE(
+      map->first_non_free_on_segment(Vec3(1e9f, 0.f, 0.f), Vec3(0.f, 0.f, 0.f), &hit, &state));
+  EXPECT_EQ(state, Occupancy::kUnknown);
 }
 
 TEST(OccupancyMap, SegmentQueryMatchesReferenceWalk) {

@@ -106,6 +106,10 @@ TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
   c = PipelineConfig{};
   c.budgets.max_pixel_stride = 0;
   EXPECT_STREQ(validate(c).field, "budgets.max_pixel_stride");
+
+  c = PipelineConfig{};
+  c.predictor.unknown_weight = 1.5f;
+  EXPECT_STREQ(validate(c).field, "predictor.unknown_weight");
 }
 
 TEST(Pipeline, InitRejectsBadConfigAndProcessNeedsInit) {

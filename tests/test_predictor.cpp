@@ -29,7 +29,7 @@ constexpr float kPiF = 3.14159265358979f;
 class BoxWorld {
  public:
   void add_box(const Box3& b) { ASSERT_EQ(boxes_.push_back(b), Status::kOk); }
-  OccupancyQuery query() const { return OccupancyQuery::of(*this); }
+  OccupancyQuery query() const { return OccupancyQuery::occupied_only(*this); }
 
   bool first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                                  Eigen::Vector3f* hit) const noexcept {
@@ -118,7 +118,13 @@ void expect_valid_distribution(const PathPrediction& p) {
   }
   EXPECT_NEAR(sum, 1.0f, 1e-5f);
   EXPECT_LT(p.chosen, p.num_paths);
+  // Default choose_free: the most likely of the free paths when any is free, else of all.
+  if (p.any_free) {
+    EXPECT_TRUE(p.path_free(p.chosen));
+  }
+  EXPECT_EQ(p.failed, !p.path_free(p.chosen));
   for (std::size_t i = 0; i < p.num_paths; ++i) {
+    if (p.any_free && !p.path_free(i)) continue;
     EXPECT_LE(p.probability[i], p.probability[p.chosen]);
   }
 }
@@ -789,6 +795,160 @@ TEST(MarkovPredictor, OwnBodyInTheMapIsNotAnObstacle) {
   EXPECT_EQ(validate(bad), Status::kInvalidArgument);
   bad.self_margin = std::nanf("");
   EXPECT_EQ(validate(bad), Status::kInvalidArgument);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Observed-free space (unknown_weight) and the choice among free paths (choose_free).
+
+/// Sets every voxel whose centre lies in `b` to `log_odds` (negative: observed free).
+void fill(OccupancyMap& map, const Box3& b, float log_odds) {
+  const float res = map.resolution();
+  for (float x = b.min.x() + 0.5f * res; x < b.max.x(); x += res) {
+    for (float y = b.min.y() + 0.5f * res; y < b.max.y(); y += res) {
+      for (float z = b.min.z() + 0.5f * res; z < b.max.z(); z += res) {
+        ASSERT_EQ(map.set_log_odds(Eigen::Vector3f(x, y, z), log_odds), Status::kOk);
+      }
+    }
+  }
+}
+
+TEST(MarkovPredictor, PathThroughUnknownSpaceLosesToObservedFree) {
+  // Walker at the origin heading +x; a thin wall ahead blocks the straight path only. The
+  // camera has seen the right side (y < 0.5) free; the left side is unknown. Both 45-degree
+  // turns are free of occupied voxels and mirror each other, so the map as the original read
+  // it (unknown = free) cannot tell them apart and the exact tie goes to the left one; counting
+  // only observed-free space, the right one wins.
+  auto map = std::make_unique<OccupancyMap>();
+  ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
+  fill(*map, Box3{Eigen::Vector3f(-1.0f, -3.0f, 0.0f), Eigen::Vector3f(4.0f, 0.5f, 2.5f)}, -2.0f);
+  fill(*map, Box3{Eigen::Vector3f(1.5f, -0.4f, 0.0f), Eigen::Vector3f(1.6f, 0.4f, 2.5f)}, 3.0f);
+  const OccupancyQuery q = OccupancyQuery::of(*map);
+  const ObstacleState o = walker(3, 0.0f, 0.0f, 1.0f, 0.0f);
+  std::array<PathPrediction, 3> out{};
+  const std::array<float, 3> weights = {1.0f, 0.5f, 0.0f};
+  for (std::size_t k = 0; k < weights.size(); ++k) {
+    MarkovPredictorConfig c = markov_config(5);
+    c.unknown_weight = weights[k];
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    ASSERT_EQ(mp.predict(&o, 1, q, &out[k]), Status::kOk);
+    expect_valid_distribution(out[k]);
+    // Free means free of occupied voxels, whatever the weight.
+    EXPECT_EQ(out[k].free_mask, 0b11011u) << "weight " << weights[k];
+    EXPECT_FALSE(out[k].failed);
+  }
+  // unknown = free: no second sweep, mirror paths equal, the tie goes to the left.
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_EQ(out[0].observed_distance[i], out[0].free_distance[i]);
+  }
+  EXPECT_FLOAT_EQ(out[0].probability[1], out[0].probability[3]);
+  EXPECT_EQ(out[0].chosen, 1u);
+  for (std::size_t k = 1; k < weights.size(); ++k) {
+    const PathPrediction& p = out[k];
+    EXPECT_FLOAT_EQ(p.free_distance[1], p.path_length);
+    EXPECT_LT(p.observed_distance[1], 0.5f * p.path_length);  // enters the unknown left side
+    EXPECT_FLOAT_EQ(p.observed_distance[3], p.path_length);   // seen free all the way
+    EXPECT_LE(p.observed_distance[2], p.free_distance[2]);
+    EXPECT_GT(p.probability[3], p.probability[1]) << "weight " << weights[k];
+    EXPECT_GT(p.probability[4], p.probability[0]) << "weight " << weights[k];
+    EXPECT_EQ(p.chosen, 3u) << "weight " << weights[k];
+  }
+  // The lower the weight, the stronger the preference.
+  EXPECT_GT(out[2].probability[3] / out[2].probability[1],
+            out[1].probability[3] / out[1].probability[1]);
+}
+
+TEST(MarkovPredictor, WithoutTheNonFreeQueryEverythingNotOccupiedCountsAsObserved) {
+  BoxWorld w;  // its view has no non-free query
+  build_wall_with_left_opening(w);
+  ASSERT_FALSE(w.query().knows_unknown());
+  MarkovPredictorConfig c = markov_config(5);
+  MarkovPredictor plain;
+  ASSERT_EQ(plain.init(c), Status::kOk);
+  c.unknown_weight = 0.0f;
+  MarkovPredictor weighted;
+  ASSERT_EQ(weighted.init(c), Status::kOk);
+  for (int f = 0; f < 5; ++f) {
+    const ObstacleState o = walker(8, -0.3f + 0.1f * static_cast<float>(f), 0.0f, 1.0f, 0.0f);
+    PathPrediction a;
+    PathPrediction b;
+    ASSERT_EQ(plain.predict(&o, 1, w.query(), &a), Status::kOk);
+    ASSERT_EQ(weighted.predict(&o, 1, w.query(), &b), Status::kOk);
+    EXPECT_EQ(a.chosen, b.chosen);
+    for (std::size_t i = 0; i < 5; ++i) {
+      EXPECT_EQ(b.observed_distance[i], b.free_distance[i]);
+      EXPECT_EQ(a.probability[i], b.probability[i]);
+    }
+  }
+}
+
+TEST(MarkovPredictor, UnknownWeightIsValidated) {
+  MarkovPredictorConfig c = markov_config(5);
+  MarkovPredictor mp;
+  for (float good : {0.0f, 0.5f, 1.0f}) {
+    c.unknown_weight = good;
+    EXPECT_EQ(mp.init(c), Status::kOk);
+  }
+  for (float bad : {-0.1f, 1.01f, std::nanf(""), INFINITY}) {
+    c.unknown_weight = bad;
+    EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
+  }
+  EXPECT_EQ(mp.config().unknown_weight, 1.0f);  // a rejected config changed nothing
+}
+
+TEST(MarkovPredictor, ChoosesTheMostLikelyFreePathOverAKnownCollision) {
+  // A wall just before the end of the straight path: P_env hardly penalises a hit at 2.85 m of
+  // 3 m, so with P_init the straight path stays the most likely although it collides.
+  BoxWorld w;
+  w.add_box(wall(2.85f, -0.35f, 2.95f, 0.35f));
+  const ObstacleState o = walker(4, 0.0f, 0.0f, 1.0f, 0.0f);
+  std::array<PathPrediction, 2> out{};
+  for (int choose_free = 0; choose_free < 2; ++choose_free) {
+    MarkovPredictorConfig c = markov_config(5);
+    c.choose_free = choose_free != 0;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out[choose_free]), Status::kOk);
+  }
+  const PathPrediction& plain = out[0];
+  const PathPrediction& chosen_free = out[1];
+  ASSERT_FALSE(plain.path_free(2));
+  EXPECT_NEAR(plain.free_distance[2], 2.85f, 0.01f);  // the wall face (lines run along the path)
+  ASSERT_TRUE(plain.any_free);
+  EXPECT_EQ(plain.chosen, 2u);
+  EXPECT_TRUE(plain.failed);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_EQ(plain.probability[i], chosen_free.probability[i]);  // same belief
+    if (i != 2) {
+      EXPECT_LT(plain.probability[i], plain.probability[2]);
+    }
+  }
+  EXPECT_TRUE(chosen_free.path_free(chosen_free.chosen));
+  EXPECT_FALSE(chosen_free.failed);
+  EXPECT_EQ(std::abs(static_cast<int>(chosen_free.chosen) - 2), 1);  // a 45-degree turn
+  expect_valid_distribution(chosen_free);
+}
+
+TEST(MarkovPredictor, NoFreePathKeepsTheMostLikelyOne) {
+  // Walled in on all sides within 1 m: every path collides; choose_free changes nothing.
+  BoxWorld w;
+  w.add_box(wall(1.0f, -1.1f, 1.1f, 1.1f));
+  w.add_box(wall(-1.1f, -1.1f, -1.0f, 1.1f));
+  w.add_box(wall(-1.1f, 1.0f, 1.1f, 1.1f));
+  w.add_box(wall(-1.1f, -1.1f, 1.1f, -1.0f));
+  std::array<PathPrediction, 2> out{};
+  for (int choose_free = 0; choose_free < 2; ++choose_free) {
+    MarkovPredictorConfig c = markov_config(5);
+    c.choose_free = choose_free != 0;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    const ObstacleState o = walker(6, 0.0f, 0.0f, 1.0f, 0.2f);
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out[choose_free]), Status::kOk);
+  }
+  EXPECT_FALSE(out[1].any_free);
+  EXPECT_TRUE(out[1].failed);
+  EXPECT_EQ(out[0].chosen, out[1].chosen);
+  expect_valid_distribution(out[1]);
 }
 
 }  // namespace

@@ -34,6 +34,22 @@ struct MarkovPredictorConfig {
   /// ending in unknown space) it stays on a turn forever. [0, 1); 0 (default) is the plain
   /// Gaussian chain: 0.2 halves the corridor failures but raises env_a/env_b (docs/predictor.md).
   float straight_return = 0.0f;
+  /// Weight, in [0, 1], of the stretch of a path that runs through space the map has never
+  /// observed (unknown voxels) in the free distance of P_env: Dist_i = observed_i +
+  /// unknown_weight * (free_i - observed_i), where observed_i is the arc length before the
+  /// footprint meets a voxel not observed free and free_i the one before an occupied voxel. The
+  /// map only knows what the camera saw within its range, and walls it has not seen are unknown:
+  /// counted as free (1, the original rule) they make every path look equally good and leave the
+  /// choice to the belief. Whether a path is free (free_mask, any_free, failed) still depends on
+  /// occupied voxels only. 1 skips the second sweep (cost as before).
+  float unknown_weight = 1.0f;
+  /// Output the most likely of the paths that are free in the map, when at least one is, instead
+  /// of the most likely path overall. P_env is soft (a path blocked at 2.9 m of a 3 m horizon
+  /// scores nearly as well as a free one), so the plain maximum can pick a path the predictor
+  /// itself knows collides (out->failed) while a free one is almost as likely. The belief and
+  /// the probabilities are the same either way; only the choice differs. false: the plain
+  /// maximum (DESIGN.md §4.6 as written).
+  bool choose_free = true;
 };
 
 /// Slots of the per-track belief table (power of two, max load 7/8 >= kMaxTracks).

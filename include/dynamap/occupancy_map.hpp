@@ -101,6 +101,13 @@ class OccupancyMap {
   /// First occupied voxel on the segment a->b (3-D DDA); fills *hit (voxel centre) when found.
   bool first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                                  Eigen::Vector3f* hit) const noexcept;
+  /// First voxel on the segment a->b that is not observed free (unknown or occupied), with the
+  /// same 3-D DDA: fills *hit (voxel centre) and *state when found. Planners and the predictor
+  /// use it to tell space seen to be free from space never seen (src/occupancy_map_free_query.cpp).
+  /// Work: one step per voxel crossed (no block is skipped), at most kMaxSegmentVisits; a longer
+  /// segment reports its first unchecked voxel as unknown.
+  bool first_non_free_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                 Eigen::Vector3f* hit, Occupancy* state = nullptr) const noexcept;
 
   /// Visits occupied voxels whose centre lies inside `box`; examines at most `max_voxels`
   /// (each block position looked up and each voxel read counts one).

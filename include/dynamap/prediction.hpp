@@ -25,23 +25,42 @@ struct ObstacleState {
 };
 
 /// Non-owning, type-erased view of anything with OccupancyMap's
-/// `bool first_occupied_on_segment(a, b, Eigen::Vector3f* hit) const noexcept`: a context pointer
-/// plus a plain function pointer, so tests can pass a fake world and nothing is virtual.
+/// `bool first_occupied_on_segment(a, b, Eigen::Vector3f* hit) const noexcept` and, optionally,
+/// `bool first_non_free_on_segment(a, b, Eigen::Vector3f* hit) const noexcept` (first voxel not
+/// observed free): a context pointer plus plain function pointers, so tests can pass a fake world
+/// and nothing is virtual. Without the second query (nullptr) every voxel that is not occupied
+/// counts as observed free.
 struct OccupancyQuery {
   using SegmentFn = bool (*)(const void* context, const Eigen::Vector3f& a,
                              const Eigen::Vector3f& b, Eigen::Vector3f* hit) noexcept;
   const void* context = nullptr;
   SegmentFn first_occupied_on_segment = nullptr;
+  SegmentFn first_non_free_on_segment = nullptr;  ///< optional
 
   bool valid() const noexcept { return context != nullptr && first_occupied_on_segment != nullptr; }
   bool segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                Eigen::Vector3f* hit) const noexcept {
     return first_occupied_on_segment(context, a, b, hit);
   }
+  bool knows_unknown() const noexcept { return first_non_free_on_segment != nullptr; }
+  bool non_free_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                        Eigen::Vector3f* hit) const noexcept {
+    return knows_unknown() ? first_non_free_on_segment(context, a, b, hit) : segment(a, b, hit);
+  }
 
-  /// View of `map`, which must outlive the view.
+  /// View of `map` (both queries), which must outlive the view.
   template <class Map>
   static OccupancyQuery of(const Map& map) noexcept {
+    OccupancyQuery q = occupied_only(map);
+    q.first_non_free_on_segment = [](const void* ctx, const Eigen::Vector3f& a,
+                                     const Eigen::Vector3f& b, Eigen::Vector3f* hit) noexcept {
+      return static_cast<const Map*>(ctx)->first_non_free_on_segment(a, b, hit);
+    };
+    return q;
+  }
+  /// View of `map` that only knows occupied voxels (everything else counts as observed free).
+  template <class Map>
+  static OccupancyQuery occupied_only(const Map& map) noexcept {
     OccupancyQuery q;
     q.context = &map;
     q.first_occupied_on_segment = [](const void* ctx, const Eigen::Vector3f& a,
@@ -88,24 +107,32 @@ std::size_t clearance_lines(const ClearanceConfig& c, float radius) noexcept;
 struct PathClearance {
   float free_distance = 0.0f;  ///< m of arc length before the first hit; full length when free
   bool free = true;            ///< no occupied voxel met over the whole path
+  /// m of arc length before the footprint first meets a voxel that is not observed free
+  /// (unknown or occupied), <= free_distance; == free_distance when not measured.
+  float observed_distance = 0.0f;
 };
 
 /// Sweeps the obstacle's footprint along `path` (map top view, from PathLibrary::sample) and
-/// returns the arc length travelled before the first occupied voxel. Work: at most (samples - 1) x
-/// lines x height_levels segment queries (lines = clearance_lines()), fewer where samples merge
-/// into chords, stopping at the first chord that hits.
+/// returns the arc length travelled before the first occupied voxel and, when `observed` is set
+/// (and the map view has the query), before the first voxel not observed free. Work: at most
+/// (samples - 1) x lines x height_levels segment queries (lines = clearance_lines()) per measure,
+/// fewer where samples merge into chords, stopping at the first chord that hits.
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
-                         const ObstacleState& obstacle, const ClearanceConfig& clearance) noexcept;
+                         const ObstacleState& obstacle, const ClearanceConfig& clearance,
+                         bool observed = false) noexcept;
 
 /// One obstacle's prediction. For the linear predictor num_paths is 1.
 struct PathPrediction {
   std::uint32_t track_id = 0;
   std::size_t num_paths = 0;
-  std::size_t chosen = 0;                        ///< index of the most likely path
+  /// index of the most likely path (Markov with choose_free: of the free ones, if any is free)
+  std::size_t chosen = 0;
   std::array<float, kMaxPaths> probability{};    ///< per path, sums to 1
   std::array<float, kMaxPaths> free_distance{};  ///< per path, m (== path_length when free)
-  std::uint32_t free_mask = 0;                   ///< bit i set when path i is collision-free
-  float path_length = 0.0f;                      ///< m, arc length of every path
+  /// per path, m before the first voxel not observed free (== free_distance when not measured)
+  std::array<float, kMaxPaths> observed_distance{};
+  std::uint32_t free_mask = 0;  ///< bit i set when path i is collision-free
+  float path_length = 0.0f;     ///< m, arc length of every path
   std::size_t num_samples = 0;
   std::array<Eigen::Vector3f, kMaxPathSamples> position;  ///< chosen path, map frame
   std::array<float, kMaxPathSamples> time{};              ///< s after the input's time

@@ -57,6 +57,18 @@ double true_hit(const StaticWorld& w, const std::vector<Eigen::Vector2d>& pts, d
   return -1.0;
 }
 
+// Per-path values as one CSV field, "|"-separated.
+template <class Array>
+std::string joined(const Array& v, std::size_t n) {
+  std::string s;
+  char buf[32];
+  for (std::size_t i = 0; i < n; ++i) {
+    std::snprintf(buf, sizeof buf, "%s%.3g", i > 0 ? "|" : "", static_cast<double>(v[i]));
+    s += buf;
+  }
+  return s;
+}
+
 int run(int argc, char** argv) {
   if (argc < 2) {
     std::cerr << "usage: dynamap-predict-diag SEQ [--params FILE] > diag.csv\n";
@@ -98,7 +110,7 @@ int run(int argc, char** argv) {
   std::cout << "frame,id,age,speed,radius_pred,radius_eval,l,chosen,prob_chosen,markov_fail,"
                "linear_fail,map_free_mask,true_free_mask,any_map_free,start_dist,hit_s,hit_x,"
                "hit_y,wall_occ,wall_free,wall_unknown,chosen_free_dist,max_free_dist,"
-               "straight_free_dist,gt_dist\n";
+               "straight_free_dist,gt_dist,free_dists,observed_dists,probs,cam_x,cam_y,x,y,vx,vy\n";
   std::map<std::uint32_t, int> age;
   auto out = std::make_unique<FrameOutput>();
   PathSamples ps;
@@ -185,7 +197,12 @@ int run(int argc, char** argv) {
                 << world.top_view_distance(start, zlo, zhi) << "," << hit_s << "," << where.x()
                 << "," << where.y() << "," << occ << "," << fre << "," << unk << ","
                 << pm.free_distance[pm.chosen] << "," << maxd << ","
-                << pm.free_distance[pm.num_paths / 2] << "," << gt_dist << "\n";
+                << pm.free_distance[pm.num_paths / 2] << "," << gt_dist << ","
+                << joined(pm.free_distance, pm.num_paths) << ","
+                << joined(pm.observed_distance, pm.num_paths) << ","
+                << joined(pm.probability, pm.num_paths) << "," << frame.T_map_camera.translation.x()
+                << "," << frame.T_map_camera.translation.y() << "," << start.x() << "," << start.y()
+                << "," << ob->velocity.x() << "," << ob->velocity.y() << "\n";
     }
     age = next_age;
   }

@@ -157,6 +157,8 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(predictor.sigma_trans),
       DYNAMAP_PARAM(predictor.beta),
       DYNAMAP_PARAM(predictor.straight_return),
+      DYNAMAP_PARAM(predictor.unknown_weight),
+      DYNAMAP_PARAM(predictor.choose_free),
       DYNAMAP_PARAM(predictor.clearance.height_levels),
       DYNAMAP_PARAM(predictor.clearance.self_margin),
       DYNAMAP_PARAM(run_linear_baseline),
