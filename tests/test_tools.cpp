@@ -249,6 +249,35 @@ TEST(ResultsCsv, ColumnsByNameAndClearErrors) {
                {"predictions.csv:3", "'t'"});
 }
 
+TEST(ResultsCsv, PredictionRowsSayMinusOneWhenNoPathIsFree) {
+  TempDir dir;
+  dynamap::PathPrediction p;
+  p.track_id = 7;
+  p.num_paths = 3;
+  p.chosen = 2;
+  p.probability[2] = 0.5f;
+  p.num_samples = 2;
+  p.time[1] = 0.1f;
+  p.position[1] = Eigen::Vector3f(1.f, 2.f, 0.9f);
+  p.any_free = true;
+  {
+    std::ofstream f(dir / "predictions.csv");
+    f << "stamp,id,path,probability,k,t,x,y,z\n";
+    write_prediction_rows(f, "1.000000", p);
+    p.any_free = false;  // every path blocked in the map: the row must say so
+    write_prediction_rows(f, "2.000000", p);
+  }
+  const auto rows = read_predictions_csv(dir / "predictions.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0].path, 2);
+  EXPECT_EQ(rows[1].path, 2);
+  EXPECT_EQ(rows[1].id, 7);
+  EXPECT_DOUBLE_EQ(rows[1].position.y(), 2.0);
+  EXPECT_EQ(rows[2].path, -1);
+  EXPECT_EQ(rows[3].path, -1);
+  EXPECT_EQ(rows[3].k, 1);
+}
+
 // ---------------------------------------------------------------------------- simulator ------
 
 namespace {

@@ -99,4 +99,14 @@ std::vector<PredictionRow> read_predictions_csv(const std::string& path) {
   return rows;
 }
 
+void write_prediction_rows(std::ostream& out, const std::string& stamp_text,
+                           const PathPrediction& p) {
+  const int path = p.any_free ? static_cast<int>(p.chosen) : -1;
+  for (std::size_t k = 0; k < p.num_samples; ++k) {
+    out << stamp_text << "," << p.track_id << "," << path << "," << p.probability[p.chosen] << ","
+        << k << "," << p.time[k] << "," << p.position[k].x() << "," << p.position[k].y() << ","
+        << p.position[k].z() << "\n";
+  }
+}
+
 }  // namespace dynamap::tools

@@ -22,6 +22,7 @@
 
 #include "common/obstacles.hpp"
 #include "common/png_io.hpp"
+#include "common/results.hpp"
 #include "common/sequence.hpp"
 #include "common/static_world.hpp"
 #include "common/text_io.hpp"
@@ -293,14 +294,6 @@ int run(const Options& o) {
   const double t_start = wall_seconds();
   double t_report = t_start;
 
-  auto write_predictions = [](std::ofstream& f, const std::string& stamp, const PathPrediction& p) {
-    for (std::size_t k = 0; k < p.num_samples; ++k) {
-      f << stamp << "," << p.track_id << "," << p.chosen << "," << p.probability[p.chosen] << ","
-        << k << "," << p.time[k] << "," << p.position[k].x() << "," << p.position[k].y() << ","
-        << p.position[k].z() << "\n";
-    }
-  };
-
   for (std::size_t i = 0; i < n; ++i) {
     const SequenceFrame& sf = seq.frames[i];
     const double t0 = wall_seconds();
@@ -346,9 +339,9 @@ int run(const Options& o) {
       }
     }
     for (std::size_t j = 0; j < out->num_predictions; ++j) {
-      write_predictions(preds, sf.stamp_text, out->predictions[j]);
+      write_prediction_rows(preds, sf.stamp_text, out->predictions[j]);
       if (config.run_linear_baseline)
-        write_predictions(linear, sf.stamp_text, out->linear_predictions[j]);
+        write_prediction_rows(linear, sf.stamp_text, out->linear_predictions[j]);
     }
     timing << sf.stamp_text;
     for (std::size_t k = 0; k < kStageCount; ++k)
