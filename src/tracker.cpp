@@ -18,10 +18,16 @@ float overlap_area_xy(const Box3& a, const Box3& b) noexcept {
   return (dx > 0.f && dy > 0.f) ? dx * dy : 0.f;
 }
 
-Status validate_detection(const Detection& d) noexcept {
-  if (!d.box.min.allFinite() || !d.box.max.allFinite()) return Status::kNonFinite;
-  if ((d.box.min.array() > d.box.max.array()).any()) return Status::kInvalidArgument;
+Status validate_box(const Box3& b) noexcept {
+  if (!b.min.allFinite() || !b.max.allFinite()) return Status::kNonFinite;
+  if ((b.min.array() > b.max.array()).any()) return Status::kInvalidArgument;
   return Status::kOk;
+}
+
+/// Both boxes: either may be the one measured (TrackerConfig::measure_raw_box).
+Status validate_detection(const Detection& d) noexcept {
+  const Status s = validate_box(d.box);
+  return ok(s) ? validate_box(d.raw_box) : s;
 }
 
 }  // namespace
@@ -34,6 +40,7 @@ Status TrackerConfig::validate() const noexcept {
       size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
       noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
       std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
+
       history_length + 1 <= kMaxTrackHistory &&
       continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
       box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 && image_width > 0 &&
@@ -82,9 +89,10 @@ bool Tracker::moves_rigidly(const Track& t) const noexcept {
 Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3f& camera,
                                       const Eigen::Vector3f* fixed_size) const noexcept {
   Measurement m;
-  m.center = det.box.center();
-  m.raw_size = det.box.size();
-  m.edges << det.box.min.head<2>(), det.box.max.head<2>();
+  const Box3& box = config_.measure_raw_box ? det.raw_box : det.box;
+  m.center = box.center();
+  m.raw_size = box.size();
+  m.edges << box.min.head<2>(), box.max.head<2>();
   m.in_view = fully_in_view(det.image_box);
   m.near_enough = det.near_depth <= config_.size_fix_max_depth;
   m.size = m.raw_size;
@@ -299,6 +307,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     det_used[pr.det] = true;
     track_used[pr.slot] = true;
     correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
+    tracks_[pr.slot].out.detection = pr.det;
   }
 
   // --- unmatched tracks coast, then are dropped ---
@@ -306,6 +315,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     Track& t = tracks_[s];
     if (!t.active || track_used[s]) continue;
     ++t.out.missed_frames;
+    t.out.detection = -1;
     // An early label needs an unbroken run of votes: a gap withdraws it.
     t.dynamic_streak = 0;
     if (t.voter.votes() > 0) t.every_vote_dynamic = false;
@@ -328,6 +338,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
       continue;
     }
     start_track(tracks_[free_slot], meas[i], stamp);
+    tracks_[free_slot].out.detection = static_cast<std::int32_t>(i);
     ++free_slot;
   }
 

@@ -640,6 +640,75 @@ TEST(TrackerRobustness, BadConfigIsRefused) {
   EXPECT_EQ(tracker.init(TrackerConfig{}), Status::kOk);
 }
 
+// --- measurement: raw vs map-refined box -------------------------------------------------------
+
+// A walker crosses the view at 1.1 m/s. Its raw (image) box moves smoothly; the map-refined box's
+// leading edge is cut to the occupied voxels, which lag: a 0.1 m voxel counts once it has been hit
+// on two frames, so the support ends at the far face of the voxel the edge was in one frame ago.
+// The refined centre then saw-tooths by up to 5 cm with a three-frame period (as measured in
+// env_a). Measuring the raw box keeps the velocity; the refined box visibly does not.
+float velocity_error_with_lagging_support(bool measure_raw_box) {
+  TrackerConfig config;
+  config.measure_raw_box = measure_raw_box;
+  auto tracker = make_tracker(config);
+  constexpr float kSpeed = 1.1f, kVoxel = 0.1f, kDt = 1.f / 30.f;
+  Stamp stamp = 0;
+  float error_sum = 0.f;
+  int counted = 0;
+  for (int f = 0; f < 90; ++f) {
+    const Eigen::Vector3f c(4.f, -1.5f + kSpeed * kDt * static_cast<float>(f), 0.85f);
+    Detection d = detection(c, Eigen::Vector3f(0.2f, 0.5f, 1.7f));  // near face of a 0.5 m body
+    const float lead_before = c.y() + 0.25f - kSpeed * kDt;
+    const float support_end = std::ceil(lead_before / kVoxel) * kVoxel;
+    d.box.max.y() = std::min(d.raw_box.max.y(), support_end);
+    EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    if (f >= 30 && tracker->size() == 1) {
+      error_sum += (tracker->obstacle(0).velocity.head<2>() - Eigen::Vector2f(0.f, kSpeed)).norm();
+      ++counted;
+    }
+  }
+  return counted > 0 ? error_sum / static_cast<float>(counted) : 1e9f;
+}
+
+TEST(TrackerMeasurement, RawBoxKeepsTheVelocityWhereTheMapLags) {
+  const float raw = velocity_error_with_lagging_support(true);
+  const float refined = velocity_error_with_lagging_support(false);
+  EXPECT_LT(raw, 0.02f);
+  EXPECT_GT(refined, 2.f * raw);  // the effect the option removes is real in this set-up
+}
+
+TEST(TrackerMeasurement, ReportsTheDetectionBehindEachUpdate) {
+  auto tracker = make_tracker();
+  const Detection dets[2] = {detection({6.f, 2.f, 0.85f}), detection({4.f, 0.f, 0.85f})};
+  Stamp stamp = 0;
+  ASSERT_EQ(tracker->update(dets, 2, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(tracker->update(&dets[1], 1, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(tracker->size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const TrackedObstacle& o = tracker->obstacle(i);
+    EXPECT_EQ(o.detection, o.box.center().x() < 5.f ? 0 : -1);  // the other one coasts
+  }
+}
+
+TEST(TrackerMeasurement, BadRawBoxIsRefusedAndChangesNothing) {
+  auto tracker = make_tracker();
+  Stamp stamp = 0;
+  for (int f = 0; f < 5; ++f) {
+    const Detection d = detection({4.f, 0.03f * static_cast<float>(f), 0.85f});
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  const TrackedObstacle before = tracker->obstacle(0);
+  Detection d = detection({4.f, 0.15f, 0.85f});
+  d.raw_box.min.x() = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp + kFrame), Status::kNonFinite);
+  d = detection({4.f, 0.15f, 0.85f});
+  std::swap(d.raw_box.min, d.raw_box.max);
+  EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp + kFrame), Status::kInvalidArgument);
+  ASSERT_EQ(tracker->size(), 1u);
+  EXPECT_EQ(tracker->obstacle(0).box.min, before.box.min);
+  EXPECT_EQ(tracker->obstacle(0).hits, before.hits);
+}
+
 TEST(TrackerRobustness, NoHeapAllocationPerFrame) {
   auto tracker = make_tracker();
   std::vector<Detection> dets;
@@ -652,6 +721,7 @@ TEST(TrackerRobustness, NoHeapAllocationPerFrame) {
     for (std::size_t i = 0; i < dets.size(); i += 2) {
       dets[i].box.min.y() += 0.03f;
       dets[i].box.max.y() += 0.03f;
+      dets[i].raw_box = dets[i].box;  // the tracker measures the raw box by default
     }
     const std::size_t n = f % 10 == 5 ? dets.size() / 2 : dets.size();  // some coast
     ASSERT_EQ(tracker->update(dets.data(), n, camera_at(), stamp += kFrame), Status::kOk);

@@ -97,6 +97,9 @@ class Pipeline {
   /// Read-only map for planners' queries between frames (same thread, or after a hand-off).
   const OccupancyMap& map() const noexcept { return map_; }
   const Tracker& tracker() const noexcept { return tracker_; }
+  /// The last frame's refined detections, in the order the tracker received them
+  /// (TrackedObstacle::detection indexes this list).
+  const DetectionList& detections() const noexcept { return detections_; }
   const CleanHistory& clean_history() const noexcept { return history_; }
   const PipelineConfig& config() const noexcept { return config_; }
   const PipelineCounters& counters() const noexcept { return counters_; }

@@ -97,6 +97,14 @@ struct TrackerConfig {
   /// only, so a size frozen during a partial occlusion was too small for good (env_a: 0.18 m for
   /// a 0.53 m walker, its centre 0.17 m short). The size never shrinks once frozen.
   bool size_fix_growth = true;
+  /// Measure each detection from the detector's own box (`Detection::raw_box`, the mean surface
+  /// points of this depth image) instead of the box refined against the occupancy map. The map
+  /// confirms a voxel only after repeated hits (two at prob_hit 0.7, prob_occupied 0.8) and
+  /// quantises to its resolution, so the support of a moving surface lags at its leading edge
+  /// and advances in voxel steps: at 1.1 m/s and 0.1 m voxels the refined box's centre saw-tooths
+  /// by up to 5 cm with a three-frame period (docs/tracker.md, "Measurement"). No choice
+  /// to validate: both are boxes of the same detection.
+  bool measure_raw_box = true;
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -117,6 +125,9 @@ struct TrackedObstacle {
   std::uint32_t hits = 0;                              ///< frames with a matched detection
   std::uint32_t missed_frames = 0;                     ///< consecutive frames without a match
   Stamp last_seen = 0;                                 ///< stamp of the last matched detection
+  /// Index of this frame's detection the track was updated with, -1 when it coasted: lets a
+  /// caller (diagnosis tools) relate the estimate to the measurement behind it.
+  std::int32_t detection = -1;
 };
 
 class Tracker {

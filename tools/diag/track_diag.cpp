@@ -63,7 +63,10 @@ int run(int argc, char** argv) {
   std::map<int, Eigen::Vector2d> previous_velocity;
 
   std::cout << "frame,id,x,y,vx,vy,speed,continuity,dynamic,votes,dynamic_votes,age,hits,missed,"
-               "size_fixed,sx,sy,gt_id,gt_dist,gt_vx,gt_vy,gt_visible,gt_depth,gt_turn_rate\n";
+               "size_fixed,sx,sy,gt_id,gt_dist,gt_vx,gt_vy,gt_visible,gt_depth,gt_turn_rate,det,"
+               "det_x,det_y,"
+               "det_sx,det_sy,det_u0,det_u1,det_v0,det_v1,det_near,det_touch_nearer,det_touch,"
+               "cam_x,cam_y,raw_x,raw_y,raw_sx,raw_sy,refined\n";
   auto out = std::make_unique<FrameOutput>();
   for (std::size_t f = 0; f < seq.frames.size(); ++f) {
     const SequenceFrame& sf = seq.frames[f];
@@ -110,9 +113,42 @@ int run(int argc, char** argv) {
         const double depth_ahead = (Rt * (near->center - sf.pose.translation)).z();
         std::cout << near->id << "," << best << "," << near->velocity.x() << ","
                   << near->velocity.y() << "," << near->visible << "," << depth_ahead << ","
-                  << turn_rate[near->id] << "\n";
+                  << turn_rate[near->id];
       } else {
-        std::cout << "-1,-1,0,0,0,0,0\n";
+        std::cout << "-1,-1,0,0,0,0,0";
+      }
+      // The detection behind this frame's update, and whether its image box touches another
+      // detection's (a nearer one may hide part of it; any may have been grouped with it).
+      const DetectionList& dets = pipeline->detections();
+      if (ob.detection >= 0 && static_cast<std::size_t>(ob.detection) < dets.size()) {
+        const Detection& d = dets[static_cast<std::size_t>(ob.detection)];
+        int touch_nearer = 0, touch = 0;
+        for (std::size_t j = 0; j < dets.size(); ++j) {
+          if (j == static_cast<std::size_t>(ob.detection)) continue;
+          const ImageBox& a = d.image_box;
+          const ImageBox& b = dets[j].image_box;
+          const bool adjacent =
+              b.u0 <= a.u1 + 3 && b.u1 >= a.u0 - 3 && b.v0 <= a.v1 && b.v1 >= a.v0;
+          if (!adjacent) continue;
+          touch = 1;
+          if (dets[j].near_depth < d.near_depth) touch_nearer = 1;
+        }
+        const Eigen::Vector3f dc = d.box.center(), ds = d.box.size();
+        std::cout << "," << ob.detection << "," << dc.x() << "," << dc.y() << "," << ds.x() << ","
+                  << ds.y() << "," << d.image_box.u0 << "," << d.image_box.u1 << ","
+                  << d.image_box.v0 << "," << d.image_box.v1 << "," << d.near_depth << ","
+                  << touch_nearer << "," << touch;
+      } else {
+        std::cout << ",-1,0,0,0,0,0,0,0,0,0,0,0";
+      }
+      std::cout << "," << sf.pose.translation.x() << "," << sf.pose.translation.y();
+      if (ob.detection >= 0 && static_cast<std::size_t>(ob.detection) < dets.size()) {
+        const Detection& d = dets[static_cast<std::size_t>(ob.detection)];
+        const Eigen::Vector3f rc = d.raw_box.center(), rs = d.raw_box.size();
+        std::cout << "," << rc.x() << "," << rc.y() << "," << rs.x() << "," << rs.y() << ","
+                  << d.refined << "\n";
+      } else {
+        std::cout << ",0,0,0,0,0\n";
       }
     }
   }
