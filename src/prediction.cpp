@@ -192,9 +192,10 @@ float first_hit_distance(const Query& query, const PathSamples& path, const Swee
   }
   return path.arc_length[n - 1];
 }
-/// Does map point `p` lie behind a surface of the depth frame (not floor, not a predicted
-/// obstacle), by more than the noise margin and by at most that plus `band`, along the viewing
-/// ray? Outside the image, no return, out of range, in front of the surface or far behind it: no.
+/// Does map point `p` lie at a surface of the depth frame (not floor, not a predicted obstacle):
+/// along the viewing ray, at most the noise margin in front of it, or behind it by at most the
+/// margin plus `band`? Outside the image, no return, out of range, in front of the surface or far
+/// behind it (occluded): no.
 bool depth_surface_at(const DepthSweep& sw, const Eigen::Vector3f& p, float band, float floor_z,
                       float exclude_margin) noexcept {
   const DepthEvidence& ev = *sw.evidence;

@@ -100,19 +100,19 @@ struct ClearanceConfig {
 /// (docs/predictor.md, "Depth image"). The map integrates hits only up to map.max_depth (5 m)
 /// and needs a few frames to mark a surface occupied, while the tracker follows people to ~8 m:
 /// a far walker's walls are unknown in the map, but they are in this frame. Each swept point is
-/// projected into the image: in front of the measured surface it is seen free now; behind it by
-/// more than the noise margin m(d) and at most m(d) + max(surface_thickness, the sample
-/// spacing), the path meets something; farther behind it (occluded), outside the image, with no
-/// return or out of the range below, the image knows nothing and the map's answer stands. Noise
-/// thus only delays a hit: one noisy pixel never blocks a path that passes in front of a surface
-/// (the swept lines already keep the footprint's clearance). Pixels whose measured point is
-/// floor (below the obstacle's bottom + ground_clearance) or lies on a predicted obstacle
-/// (within its footprint radius + self_margin + m(d), top view: its own body and the other
-/// walkers) never count as a surface.
+/// projected into the image: more than the noise margin m(d) in front of the measured surface it
+/// is seen free now; from there to m(d) + max(surface_thickness, the sample spacing) behind the
+/// surface, the path meets something; farther behind it (occluded), outside the image, with no
+/// return or out of the range below, the image knows nothing and the map's answer stands. (Only
+/// "behind the surface by more than m(d)" was tried too: corridor walls seen at a grazing angle
+/// then slip through, docs/predictor.md.) Pixels whose measured point is floor (below the
+/// obstacle's bottom + ground_clearance) or lies on a predicted obstacle (within its footprint
+/// radius + self_margin + m(d), top view: its own body and the other walkers) never count as a
+/// surface.
 struct DepthCheckConfig {
   bool enabled = false;  ///< false: the map alone decides (DESIGN.md §4.6)
   /// Noise margin m(d) = noise_margin + noise_quadratic * d^2 of a pixel at depth d (stereo
-  /// noise grows with d^2).
+  /// noise grows with d^2): a point that close in front of the surface counts as at it.
   float noise_margin = 0.05f;       ///< m, >= 0
   float noise_quadratic = 0.0042f;  ///< m per m^2, >= 0 (one sigma of a typical stereo camera)
   /// m behind the measured surface (beyond the margin) that still counts as inside the object;
