@@ -1,19 +1,22 @@
 // Prediction time per frame: 10 dynamic obstacles walking through a cluttered static map
 // (pillars and wall segments in a 12 m x 12 m room whose air is observed free, real
 // OccupancyMap), Markov predictor with l = 5 and l = 15, with and without the observed-free
-// sweep (unknown_weight < 1), and the linear baseline. One iteration = one frame = predict() for
-// all 10.
+// sweep (unknown_weight < 1), with and without the depth-image check (a 640x480 frame of the
+// room's walls, pillars and segments rendered from its west wall), and the linear baseline. One
+// iteration = one frame = predict() for all 10.
 #include <benchmark/benchmark.h>
 
 #include <array>
 #include <cmath>
 #include <memory>
 #include <random>
+#include <vector>
 
 #include "dynamap/linear_predictor.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"
 #include "dynamap/prediction.hpp"
+#include "world_scene.hpp"
 
 namespace {
 
@@ -26,10 +29,13 @@ struct Scene {
   std::unique_ptr<OccupancyMap> map = std::make_unique<OccupancyMap>();
   std::array<std::array<ObstacleState, kObstacles>, kFrames> frames{};
   std::size_t occupied_voxels = 0;
+  std::vector<std::uint16_t> pixels;  // depth frame of the static boxes
+  DepthEvidence depth{};
 };
 
 void fill_box(OccupancyMap& map, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
-              std::size_t* count) {
+              std::size_t* count, dynamap::test::WorldScene* scene) {
+  scene->boxes.push_back(Box3{lo, hi});
   const float r = map.resolution();
   for (float x = lo.x() + 0.5f * r; x < hi.x(); x += r) {
     for (float y = lo.y() + 0.5f * r; y < hi.y(); y += r) {
@@ -52,6 +58,7 @@ const Scene& scene() {
     // unknown_weight < 1 has free space to walk; then room walls, 60 pillars (0.3 m), 12 wall
     // segments (1.5 m), all floor to 2.4 m.
     const float h = 2.4f;
+    dynamap::test::WorldScene world;
     for (float x = -6.05f; x < 6.1f; x += 0.1f) {
       for (float y = -6.05f; y < 6.1f; y += 0.1f) {
         for (float z = 0.05f; z < h; z += 0.1f) {
@@ -59,21 +66,29 @@ const Scene& scene() {
         }
       }
     }
-    fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {6.1f, -6.0f, h}, &sc->occupied_voxels);
-    fill_box(*sc->map, {-6.1f, 6.0f, 0.f}, {6.1f, 6.1f, h}, &sc->occupied_voxels);
-    fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {-6.0f, 6.1f, h}, &sc->occupied_voxels);
-    fill_box(*sc->map, {6.0f, -6.1f, 0.f}, {6.1f, 6.1f, h}, &sc->occupied_voxels);
+    fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {6.1f, -6.0f, h}, &sc->occupied_voxels, &world);
+    fill_box(*sc->map, {-6.1f, 6.0f, 0.f}, {6.1f, 6.1f, h}, &sc->occupied_voxels, &world);
+    fill_box(*sc->map, {-6.1f, -6.1f, 0.f}, {-6.0f, 6.1f, h}, &sc->occupied_voxels, &world);
+    fill_box(*sc->map, {6.0f, -6.1f, 0.f}, {6.1f, 6.1f, h}, &sc->occupied_voxels, &world);
     for (int i = 0; i < 60; ++i) {
       const Eigen::Vector3f c(pos(rng), pos(rng), 0.f);
       fill_box(*sc->map, c + Eigen::Vector3f(-0.15f, -0.15f, 0.f),
-               c + Eigen::Vector3f(0.15f, 0.15f, h), &sc->occupied_voxels);
+               c + Eigen::Vector3f(0.15f, 0.15f, h), &sc->occupied_voxels, &world);
     }
     for (int i = 0; i < 12; ++i) {
       const Eigen::Vector3f c(pos(rng), pos(rng), 0.f);
       const bool along_x = i % 2 == 0;
       const Eigen::Vector3f half(along_x ? 0.75f : 0.05f, along_x ? 0.05f : 0.75f, 0.f);
-      fill_box(*sc->map, c - half, c + half + Eigen::Vector3f(0.f, 0.f, h), &sc->occupied_voxels);
+      fill_box(*sc->map, c - half, c + half + Eigen::Vector3f(0.f, 0.f, h), &sc->occupied_voxels,
+               &world);
     }
+    // The camera on the west wall, 1.3 m up, looking east over the room (the simulator's model).
+    CameraIntrinsics cam;
+    cam.fx = cam.fy = 385.0f;
+    cam.cx = 320.0f;
+    cam.cy = 240.0f;
+    const Pose pose = dynamap::test::level_camera(Eigen::Vector3f(-5.9f, 0.0f, 1.3f));
+    sc->depth = DepthEvidence::of(dynamap::test::render(world, cam, pose, sc->pixels), cam, pose);
     // Walkers: straight lines at their speed, turning slightly every frame.
     for (std::size_t k = 0; k < kObstacles; ++k) {
       Eigen::Vector2f p(pos(rng) * 0.5f, pos(rng) * 0.5f);  // stay inside the room
@@ -116,40 +131,53 @@ struct CountingMap {
   }
 };
 
+// The linear baseline is map-only (docs/predictor.md): the frame is for the Markov predictor.
+Status run(MarkovPredictor& p, const ObstacleState* o, const OccupancyQuery& q,
+           const DepthEvidence* depth, PathPrediction* out) {
+  return p.predict(o, kObstacles, q, depth, out);
+}
+Status run(LinearPredictor& p, const ObstacleState* o, const OccupancyQuery& q,
+           const DepthEvidence*, PathPrediction* out) {
+  return p.predict(o, kObstacles, q, out);
+}
+
 template <class Predictor>
-void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto) {
+void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto,
+                const DepthEvidence* depth = nullptr) {
   auto p = std::make_unique<Predictor>(proto);
   CountingMap counting{sc.map.get()};
   const OccupancyQuery q = OccupancyQuery::of(counting);
   std::array<PathPrediction, kObstacles> out{};
   for (std::size_t f = 0; f < kFrames; ++f) {
-    if (!ok(p->predict(sc.frames[f].data(), kObstacles, q, out.data()))) std::abort();
+    if (!ok(run(*p, sc.frames[f].data(), q, depth, out.data()))) std::abort();
   }
   state.counters["queries/frame"] = counting.queries / kFrames;
   state.counters["voxels/frame"] = counting.voxel_lengths / kFrames;  // ~DDA steps (L1 length)
 }
 
 // Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7),
-// unknown_weight in percent (100 = default, no second sweep).
+// unknown_weight in percent (100 = default, no second sweep), depth check (0 off = default, 1 on).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
   MarkovPredictorConfig cfg;
   cfg.paths.num_paths = static_cast<std::size_t>(state.range(0));
   cfg.clearance.max_lines = static_cast<std::size_t>(state.range(1));
   cfg.unknown_weight = static_cast<float>(state.range(2)) / 100.0f;
+  cfg.depth_check.enabled = state.range(3) != 0;
+  const DepthEvidence* depth = cfg.depth_check.enabled ? &sc.depth : nullptr;
   auto mp = std::make_unique<MarkovPredictor>();
   if (!ok(mp->init(cfg))) {
     state.SkipWithError("init failed");
     return;
   }
-  count_work(state, sc, *mp);
+  count_work(state, sc, *mp, depth);
   const OccupancyQuery q = OccupancyQuery::of(*sc.map);
   std::array<PathPrediction, kObstacles> out{};
   std::size_t f = 0;
   std::size_t failed = 0;
   std::size_t predictions = 0;
   for (auto _ : state) {
-    const Status s = mp->predict(sc.frames[f].data(), kObstacles, q, out.data());
+    const Status s = mp->predict(sc.frames[f].data(), kObstacles, q, depth, out.data());
     benchmark::DoNotOptimize(s);
     benchmark::DoNotOptimize(out.data());
     for (const PathPrediction& p : out) failed += p.failed ? 1 : 0;
@@ -162,12 +190,15 @@ void BM_MarkovPredictor(benchmark::State& state) {
   state.counters["occupied_voxels"] = static_cast<double>(sc.occupied_voxels);
 }
 BENCHMARK(BM_MarkovPredictor)
-    ->ArgNames({"l", "max_lines", "unknown_pct"})
-    ->Args({5, 9, 100})
-    ->Args({15, 9, 100})
-    ->Args({5, 3, 100})
-    ->Args({15, 3, 100})
-    ->Args({5, 9, 90})
+    ->ArgNames({"l", "max_lines", "unknown_pct", "depth"})
+    ->Args({5, 9, 100, 0})
+    ->Args({15, 9, 100, 0})
+    ->Args({5, 3, 100, 0})
+    ->Args({15, 3, 100, 0})
+    ->Args({5, 9, 90, 0})
+    ->Args({5, 9, 100, 1})
+    ->Args({15, 9, 100, 1})
+    ->Args({5, 3, 100, 1})
     ->Unit(benchmark::kMicrosecond);
 
 void BM_LinearPredictor(benchmark::State& state) {

@@ -59,6 +59,7 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
   if (!std::isfinite(c.unknown_weight) || c.unknown_weight < 0.0f || c.unknown_weight > 1.0f) {
     return Status::kInvalidArgument;
   }
+  if (!ok(validate(c.depth_check))) return Status::kInvalidArgument;
 
   config_ = c;
   library_ = lib;
@@ -99,10 +100,11 @@ bool MarkovPredictor::belief(std::uint32_t track_id, Belief* out) const noexcept
 }
 
 Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t count,
-                                const OccupancyQuery& map, PathPrediction* out) noexcept {
+                                const OccupancyQuery& map, const DepthEvidence* depth,
+                                PathPrediction* out) noexcept {
   if (!initialised_) return Status::kNotInitialized;
   // Validate everything before touching any state.
-  const Status bad = validate_prediction_call(obstacles, count, map, out);
+  const Status bad = validate_prediction_call(obstacles, count, map, depth, out);
   if (!ok(bad)) return bad;
   for (std::size_t k = 0; k < count; ++k) {
     for (std::size_t m = 0; m < k; ++m) {
@@ -120,12 +122,17 @@ Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t coun
   });
   for (const std::uint32_t id : stale) beliefs_.erase(id);
 
-  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, &out[k]);
+  DepthSweep sweep;
+  sweep.evidence = depth;
+  sweep.config = config_.depth_check;
+  sweep.obstacles = obstacles;
+  sweep.count = count;
+  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, sweep, &out[k]);
   return Status::kOk;
 }
 
 void MarkovPredictor::predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
-                                  PathPrediction* out) noexcept {
+                                  const DepthSweep& depth, PathPrediction* out) noexcept {
   const std::size_t l = library_.size();
   const Eigen::Vector2f origin = obstacle.position.head<2>();
 
@@ -133,6 +140,7 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
   out->track_id = obstacle.track_id;
   out->num_paths = l;
   out->free_mask = 0;
+  out->depth_blocked_mask = 0;
   out->any_free = false;
   const bool observed = config_.unknown_weight < 1.0f;
   const float w = config_.unknown_weight;
@@ -140,9 +148,11 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
   float max_dist = 0.0f;
   for (std::size_t i = 0; i < l; ++i) {
     library_.sample(i, origin, obstacle.velocity, &paths_[i]);
-    const PathClearance c = sweep_path(map, paths_[i], obstacle, config_.clearance, observed);
+    const PathClearance c =
+        sweep_path(map, paths_[i], obstacle, config_.clearance, observed, depth);
     out->free_distance[i] = c.free_distance;
     out->observed_distance[i] = c.observed_distance;
+    if (c.depth_blocked) out->depth_blocked_mask |= 1u << i;
     if (c.free) {
       out->free_mask |= 1u << i;
       out->any_free = true;

@@ -167,10 +167,16 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
     predictor_input_[n_dyn++] = predictor_input(o);
   }
   const OccupancyQuery query = OccupancyQuery::of(map_);
-  if (!ok(markov_.predict(predictor_input_.data(), n_dyn, query, out.predictions.data()))) {
+  // The frame's pixels are read in place: the caller keeps them alive for the whole call.
+  const DepthEvidence evidence = DepthEvidence::of(frame.depth, config_.camera, frame.T_map_camera);
+  const DepthEvidence* depth = config_.predictor.depth_check.enabled ? &evidence : nullptr;
+  if (!ok(markov_.predict(predictor_input_.data(), n_dyn, query, depth, out.predictions.data()))) {
     n_dyn = 0;
   }
   if (config_.run_linear_baseline && n_dyn > 0) {
+    // Map only: the baseline's straight path is fixed, and its failure counts "no path free"
+    // (tools/eval), so a depth-image surface would change its figure by a test that is not the
+    // collision of that path with the world.
     (void)linear_.predict(predictor_input_.data(), n_dyn, query, out.linear_predictions.data());
   }
   out.num_predictions = n_dyn;

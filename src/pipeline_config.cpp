@@ -93,6 +93,19 @@ ConfigError validate(const PipelineConfig& c) noexcept {
   k.require(std::isfinite(c.predictor.unknown_weight) && c.predictor.unknown_weight >= 0.f &&
                 c.predictor.unknown_weight <= 1.f,
             "predictor.unknown_weight", "must be in [0, 1]");
+  {
+    const DepthCheckConfig& d = c.predictor.depth_check;
+    k.require(std::isfinite(d.noise_margin) && d.noise_margin >= 0.f,
+              "predictor.depth_check.noise_margin", "must be finite and >= 0");
+    k.require(std::isfinite(d.noise_quadratic) && d.noise_quadratic >= 0.f,
+              "predictor.depth_check.noise_quadratic", "must be finite and >= 0");
+    k.require(std::isfinite(d.surface_thickness) && d.surface_thickness >= 0.f,
+              "predictor.depth_check.surface_thickness", "must be finite and >= 0");
+    k.require(std::isfinite(d.min_depth) && d.min_depth > 0.f, "predictor.depth_check.min_depth",
+              "must be finite and > 0");
+    k.require(std::isfinite(d.max_depth) && d.max_depth > d.min_depth,
+              "predictor.depth_check.max_depth", "must be finite and > min_depth");
+  }
 
   // Timing budgets.
   k.require(c.budgets.max_pixel_stride >= 1, "budgets.max_pixel_stride", "must be >= 1");

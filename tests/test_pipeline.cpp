@@ -281,6 +281,62 @@ TEST(Pipeline, SameSequenceGivesBitIdenticalOutputs) {
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
 }
 
+// The frame reaches the predictor (predictor.depth_check): with the map's range cut to 3.5 m the
+// wall at 4.5 m is never in the map, so the walker's right turns (towards the wall) look free
+// to the map alone; the frame blocks them, and the walker's own pixels do not block its
+// straight path. Reruns are bit-identical and process() still allocates nothing.
+TEST(Pipeline, DepthCheckSeesTheWallBeyondTheMapRange) {
+  PipelineConfig cfg = small_camera_config();
+  cfg.map.max_depth = 3.5f;
+  std::array<PathPrediction, 2> last{};
+  for (int enabled = 0; enabled < 2; ++enabled) {
+    cfg.predictor.depth_check.enabled = enabled != 0;
+    auto p = std::make_unique<Pipeline>();
+    auto out = std::make_unique<FrameOutput>();
+    ASSERT_EQ(p->init(cfg), Status::kOk);
+    WalkerScenario s;
+    std::vector<Frame> frames;
+    std::vector<std::vector<std::uint16_t>> images(60);
+    for (int i = 0; i < 60; ++i) {  // the renderer allocates: render first
+      Frame f = s.frame(i, cfg.camera);
+      images[static_cast<std::size_t>(i)] = s.pixels;
+      f.depth.data = images[static_cast<std::size_t>(i)].data();
+      frames.push_back(f);
+    }
+    std::size_t allocations = 0;
+    {
+      test::AllocationGuard guard;
+      for (const Frame& f : frames) {
+        if (!ok(p->process(f, *out))) break;
+      }
+      allocations = guard.allocations();
+    }
+    EXPECT_EQ(allocations, 0u);
+    ASSERT_EQ(p->counters().frames_processed, 60u);
+    EXPECT_FALSE(p->map().first_occupied_on_segment(Eigen::Vector3f(4.0f, 1.0f, 1.2f),
+                                                    Eigen::Vector3f(5.0f, 3.0f, 1.2f), nullptr));
+    // Frame 59: the walker at (3, 0.8); its 90-degree right turn meets the wall at (4.5, 1.8),
+    // in view.
+    ASSERT_EQ(out->num_predictions, 1u);
+    last[static_cast<std::size_t>(enabled)] = out->predictions[0];
+  }
+  const PathPrediction& map_only = last[0];
+  const PathPrediction& with_depth = last[1];
+  EXPECT_TRUE(map_only.path_free(4));  // 90 degrees right: into the unseen wall
+  EXPECT_EQ(map_only.depth_blocked_mask, 0u);
+  EXPECT_FALSE(with_depth.path_free(4));
+  EXPECT_TRUE(with_depth.depth_blocked_mask & (1u << 4));
+  EXPECT_TRUE(with_depth.path_free(2));  // straight on, parallel to the wall
+  EXPECT_TRUE(with_depth.path_free(with_depth.chosen));
+
+  std::vector<float> a, b;
+  const std::uint64_t ca = run_walker_trace(cfg, a, 60);
+  const std::uint64_t cb = run_walker_trace(cfg, b, 60);
+  EXPECT_EQ(ca, cb);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
+}
+
 // The fast U-map kernel (NEON on aarch64, the vectorised host loop elsewhere) and the scalar
 // reference give the same outputs, bit for bit, through the whole pipeline.
 TEST(Pipeline, FastAndScalarHistogramKernelsGiveIdenticalOutputs) {

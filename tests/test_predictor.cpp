@@ -3,10 +3,13 @@
 // numerical safety, track bookkeeping, bad input, bounded work and zero allocations.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <random>
+#include <vector>
 
 #include "alloc_guard.hpp"
 #include "dynamap/fixed_vector.hpp"
@@ -16,6 +19,7 @@
 #include "dynamap/path_library.hpp"
 #include "dynamap/prediction.hpp"
 #include "dynamap/types.hpp"
+#include "world_scene.hpp"
 
 namespace dynamap {
 namespace {
@@ -949,6 +953,266 @@ TEST(MarkovPredictor, NoFreePathKeepsTheMostLikelyOne) {
   EXPECT_TRUE(out[1].failed);
   EXPECT_EQ(out[0].chosen, out[1].chosen);
   expect_valid_distribution(out[1]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The depth image as a second environment source (DepthCheckConfig, docs/predictor.md).
+
+/// A depth frame of a scene seen by a 320x240 camera (56 x 44 degrees) at `camera_at`, looking
+/// along map yaw `yaw`, pitched down by `pitch` (radians).
+struct DepthFrame {
+  CameraIntrinsics cam;
+  Pose pose;
+  std::vector<std::uint16_t> pixels;
+  DepthEvidence evidence;
+
+  explicit DepthFrame(const Eigen::Vector3f& camera_at = Eigen::Vector3f(0.0f, 2.5f, 1.2f),
+                      float yaw = -0.35f, float pitch = 0.0f) {
+    cam.width = 320;
+    cam.height = 240;
+    cam.fx = cam.fy = 300.0f;
+    cam.cx = 160.0f;
+    cam.cy = 120.0f;
+    pose = test::level_camera(camera_at, yaw);
+    // A positive rotation about the camera's left axis turns its view down.
+    const Eigen::Vector3f left =
+        Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ()) * Eigen::Vector3f::UnitY();
+    pose.rotation = (Eigen::AngleAxisf(pitch, left) * pose.rotation).normalized();
+  }
+  const DepthEvidence* render(const test::WorldScene& scene) {
+    evidence = DepthEvidence::of(test::render(scene, cam, pose, pixels), cam, pose);
+    return &evidence;
+  }
+};
+
+MarkovPredictorConfig depth_config() {
+  MarkovPredictorConfig c = markov_config(5);
+  c.depth_check.enabled = true;
+  return c;
+}
+
+TEST(MarkovPredictorDepth, WallBeyondTheMapRangeInTheImageBlocksThePathThroughIt) {
+  // The map knows nothing (an empty world: the wall is beyond its range); the frame shows a
+  // wall 2 m ahead of a walker 5 m out (seen from the side: straight behind a walker who walks
+  // away from the camera lies its own shadow, which the frame cannot see).
+  BoxWorld map;
+  DepthFrame f;
+  test::WorldScene scene;
+  scene.boxes = {test::person_at(5.0f, 0.0f), wall(7.0f, -1.0f, 7.2f, 1.0f)};
+  const DepthEvidence* depth = f.render(scene);
+  const ObstacleState o = walker(1, 5.0f, 0.0f, 1.2f, 0.0f);
+  PathPrediction map_only, with_depth;
+  MarkovPredictor a, b;
+  ASSERT_EQ(a.init(depth_config()), Status::kOk);
+  ASSERT_EQ(b.init(depth_config()), Status::kOk);
+  ASSERT_EQ(a.predict(&o, 1, map.query(), &map_only), Status::kOk);  // no frame: map only
+  ASSERT_EQ(b.predict(&o, 1, map.query(), depth, &with_depth), Status::kOk);
+  EXPECT_EQ(map_only.free_mask, 0x1Fu);
+  EXPECT_EQ(map_only.chosen, 2u);
+  EXPECT_EQ(map_only.depth_blocked_mask, 0u);
+
+  ASSERT_FALSE(with_depth.path_free(2));
+  EXPECT_TRUE(with_depth.depth_blocked_mask & (1u << 2));
+  // Met at the wall face (2 m), less the noise margin and one sample spacing.
+  EXPECT_GT(with_depth.free_distance[2], 1.4f);
+  EXPECT_LE(with_depth.free_distance[2], 2.05f);
+  // The 90-degree turns stay 1.3 m short of the wall: free, and seen free.
+  EXPECT_TRUE(with_depth.path_free(0));
+  EXPECT_TRUE(with_depth.path_free(4));
+  EXPECT_NE(with_depth.chosen, 2u);
+  EXPECT_FALSE(with_depth.failed);
+  expect_valid_distribution(with_depth);
+
+  // Disabled, the frame is ignored: identical to the map-only prediction.
+  MarkovPredictorConfig off = depth_config();
+  off.depth_check.enabled = false;
+  MarkovPredictor c;
+  ASSERT_EQ(c.init(off), Status::kOk);
+  PathPrediction ignored;
+  ASSERT_EQ(c.predict(&o, 1, map.query(), depth, &ignored), Status::kOk);
+  EXPECT_EQ(ignored.free_mask, map_only.free_mask);
+  EXPECT_EQ(ignored.chosen, map_only.chosen);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(ignored.probability[i], map_only.probability[i]);
+}
+
+TEST(MarkovPredictorDepth, PathInFrontOfTheSurfaceIsFreeAndNoReturnKnowsNothing) {
+  BoxWorld map;
+  DepthFrame f(Eigen::Vector3f(0.0f, 0.0f, 1.2f), 0.0f);
+  test::WorldScene scene;
+  scene.boxes = {test::person_at(4.0f, 0.0f), wall(7.9f, -3.0f, 8.0f, 3.0f)};
+  const DepthEvidence* depth = f.render(scene);
+  const ObstacleState o = walker(1, 4.0f, 0.0f, 1.0f, 0.0f);  // paths end 0.9 m before the wall
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(depth_config()), Status::kOk);
+  PathPrediction out;
+  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
+  EXPECT_EQ(out.free_mask, 0x1Fu);
+  EXPECT_EQ(out.depth_blocked_mask, 0u);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_FLOAT_EQ(out.free_distance[i], 3.0f);
+
+  // A frame without returns says nothing: the map's wall still blocks the straight path.
+  map.add_box(wall(6.0f, -0.5f, 6.1f, 0.5f));
+  std::fill(f.pixels.begin(), f.pixels.end(), std::uint16_t{0});
+  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
+  EXPECT_FALSE(out.path_free(2));
+  EXPECT_NEAR(out.free_distance[2], 2.0f, 0.15f);
+  EXPECT_EQ(out.depth_blocked_mask, 0u);
+}
+
+TEST(MarkovPredictorDepth, OwnPixelsAndOtherWalkersDoNotBlock) {
+  // The person is drawn 0.3 m ahead of its track (a lagging box): its body lies on the straight
+  // path just outside the own-body disc. A second walker stands on that path at 6.5 m.
+  BoxWorld map;
+  DepthFrame f;
+  test::WorldScene scene;
+  scene.boxes = {test::person_at(5.3f, 0.0f), test::person_at(6.5f, 0.0f)};
+  const DepthEvidence* depth = f.render(scene);
+  const std::array<ObstacleState, 2> both = {walker(1, 5.0f, 0.0f, 1.2f, 0.0f),
+                                             walker(2, 6.5f, 0.0f, 0.0f, 0.3f)};
+  LinearPredictorConfig lc;
+  ClearanceConfig clearance;
+  DepthSweep sweep;
+  sweep.evidence = depth;
+  sweep.config.enabled = true;
+  PathLibrary straight;
+  PathLibraryConfig pc;
+  pc.num_paths = 1;
+  ASSERT_EQ(straight.init(pc), Status::kOk);
+  PathSamples path;
+  straight.sample(0, both[0].position.head<2>(), both[0].velocity, &path);
+
+  // Both walkers excluded: free.
+  sweep.obstacles = both.data();
+  sweep.count = 2;
+  PathClearance c = sweep_path(map.query(), path, both[0], clearance, false, sweep);
+  EXPECT_TRUE(c.free);
+  EXPECT_FALSE(c.depth_blocked);
+  // Only itself excluded: the other walker's pixels are a surface 1.5 m ahead.
+  sweep.count = 1;
+  c = sweep_path(map.query(), path, both[0], clearance, false, sweep);
+  EXPECT_FALSE(c.free);
+  EXPECT_TRUE(c.depth_blocked);
+  EXPECT_GT(c.free_distance, 1.0f);
+  // Nothing excluded: its own (lagging) front surface blocks it at once.
+  sweep.count = 0;
+  const PathClearance own = sweep_path(map.query(), path, both[0], clearance, false, sweep);
+  EXPECT_FALSE(own.free);
+  EXPECT_LT(own.free_distance, 0.7f);
+
+  // Through the predictor, which excludes every obstacle of the call.
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(depth_config()), Status::kOk);
+  std::array<PathPrediction, 2> out{};
+  ASSERT_EQ(mp.predict(both.data(), 2, map.query(), depth, out.data()), Status::kOk);
+  EXPECT_TRUE(out[0].path_free(2));
+  EXPECT_EQ(out[0].depth_blocked_mask, 0u);
+  (void)lc;
+}
+
+TEST(MarkovPredictorDepth, FloorDoesNotBlock) {
+  // A camera 3 m up, pitched down 30 degrees: rays through the walker's lower sweep heights
+  // meet the floor just beyond the swept points; a margin of 1 m (a very noisy camera) makes
+  // those floor pixels candidates, which the floor rule must discard.
+  BoxWorld map;
+  DepthFrame f(Eigen::Vector3f(0.0f, 2.5f, 3.0f), -0.35f, 0.5236f);
+  test::WorldScene scene;
+  scene.boxes = {test::person_at(4.0f, 0.0f)};
+  const DepthEvidence* depth = f.render(scene);
+  MarkovPredictorConfig cfg = depth_config();
+  cfg.depth_check.noise_margin = 1.0f;
+  cfg.clearance.height_levels = 4;
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(cfg), Status::kOk);
+  ObstacleState o = walker(1, 4.0f, 0.0f, 1.0f, 0.0f);  // box bottom on the floor
+  PathPrediction out;
+  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
+  EXPECT_EQ(out.free_mask, 0x1Fu);
+  EXPECT_EQ(out.depth_blocked_mask, 0u);
+
+  // Control: with the box bottom 0.3 m under the floor, the floor counts from z = -0.1 and
+  // its pixels become surfaces.
+  o.position.z() -= 0.3f;
+  mp.reset();
+  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
+  EXPECT_NE(out.depth_blocked_mask, 0u);
+}
+
+TEST(MarkovPredictorDepth, ConfigAndFrameAreValidatedAndBadInputChangesNothing) {
+  for (int bad = 0; bad < 6; ++bad) {
+    MarkovPredictorConfig c = depth_config();
+    if (bad == 0) c.depth_check.noise_margin = -0.1f;
+    if (bad == 1) c.depth_check.noise_quadratic = NAN;
+    if (bad == 2) c.depth_check.surface_thickness = -1.0f;
+    if (bad == 3) c.depth_check.min_depth = 0.0f;
+    if (bad == 4) c.depth_check.max_depth = c.depth_check.min_depth;
+    if (bad == 5) c.depth_check.max_depth = INFINITY;
+    MarkovPredictor mp;
+    EXPECT_EQ(mp.init(c), Status::kInvalidArgument) << bad;
+    EXPECT_EQ(validate(c.depth_check), Status::kInvalidArgument) << bad;
+  }
+  BoxWorld map;
+  DepthFrame f;
+  test::WorldScene scene;
+  scene.boxes = {wall(7.0f, -1.0f, 7.2f, 1.0f)};
+  const DepthEvidence good = *f.render(scene);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(depth_config()), Status::kOk);
+  const ObstacleState o = walker(1, 5.0f, 0.0f, 1.2f, 0.0f);
+  PathPrediction out;
+  ASSERT_EQ(mp.predict(&o, 1, map.query(), &good, &out), Status::kOk);
+  MarkovPredictor::Belief before{};
+  ASSERT_TRUE(mp.belief(1, &before));
+  out.track_id = 999;
+  DepthEvidence bad = good;
+  bad.depth.data = nullptr;
+  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kNullData);
+  bad = good;
+  bad.depth.width = 100;
+  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kWrongSize);
+  bad = good;
+  bad.origin.x() = NAN;
+  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kNonFinite);
+  bad = good;
+  bad.camera.fx = -1.0f;
+  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kInvalidArgument);
+  EXPECT_EQ(out.track_id, 999u);
+  MarkovPredictor::Belief after{};
+  ASSERT_TRUE(mp.belief(1, &after));
+  EXPECT_EQ(after, before);
+}
+
+TEST(MarkovPredictorDepth, ZeroAllocationsAndRepeatableWithAFrame) {
+  BoxWorld map;
+  DepthFrame f;
+  test::WorldScene scene;
+  scene.boxes = {test::person_at(5.0f, 0.0f), wall(7.0f, -1.0f, 7.2f, 1.0f)};
+  const DepthEvidence* depth = f.render(scene);
+  std::array<ObstacleState, 3> in = {walker(1, 5.0f, 0.0f, 1.2f, 0.0f),
+                                     walker(2, 4.0f, 1.0f, 0.8f, 0.5f),
+                                     walker(3, 6.0f, -1.0f, 0.5f, -1.0f)};
+  MarkovPredictor a, b;
+  ASSERT_EQ(a.init(depth_config()), Status::kOk);
+  ASSERT_EQ(b.init(depth_config()), Status::kOk);
+  std::array<PathPrediction, 3> out_a{}, out_b{};
+  std::size_t allocations = 0;
+  {
+    test::AllocationGuard guard;
+    for (int frame = 0; frame < 10; ++frame) {
+      if (!ok(a.predict(in.data(), in.size(), map.query(), depth, out_a.data()))) break;
+    }
+    allocations = guard.allocations();
+  }
+  EXPECT_EQ(allocations, 0u);
+  for (int frame = 0; frame < 10; ++frame) {
+    ASSERT_EQ(b.predict(in.data(), in.size(), map.query(), depth, out_b.data()), Status::kOk);
+  }
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    EXPECT_EQ(out_a[k].chosen, out_b[k].chosen);
+    EXPECT_EQ(out_a[k].free_mask, out_b[k].free_mask);
+    EXPECT_EQ(std::memcmp(out_a[k].probability.data(), out_b[k].probability.data(),
+                          sizeof(float) * kMaxPaths),
+              0);
+  }
 }
 
 }  // namespace

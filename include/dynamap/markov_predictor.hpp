@@ -50,6 +50,11 @@ struct MarkovPredictorConfig {
   /// the probabilities are the same either way; only the choice differs. false: the plain
   /// maximum (DESIGN.md §4.6 as written).
   bool choose_free = true;
+  /// The current depth frame as a second environment source next to the map (prediction.hpp,
+  /// DepthCheckConfig): Dist_i is the smaller of the two free distances, and a path is free
+  /// (free_mask, any_free, choose_free, failed) only when neither meets anything. Used only
+  /// when predict() is given the frame; enabled = false is the map-only predictor.
+  DepthCheckConfig depth_check{};
 };
 
 /// Slots of the per-track belief table (power of two, max load 7/8 >= kMaxTracks).
@@ -73,7 +78,17 @@ class MarkovPredictor {
   /// obstacle's numbers, or a track id given twice).
   /// Work: count x l x (samples - 1) x lines x height_levels segment queries at most.
   [[nodiscard]] Status predict(const ObstacleState* obstacles, std::size_t count,
-                               const OccupancyQuery& map, PathPrediction* out) noexcept;
+                               const OccupancyQuery& map, PathPrediction* out) noexcept {
+    return predict(obstacles, count, map, nullptr, out);
+  }
+  /// The same with the current depth frame (read in place, not copied; nullptr = map only),
+  /// used when config().depth_check.enabled. Also kNullData / kWrongSize / kNonFinite /
+  /// kInvalidArgument for an unusable `depth` (validate(DepthEvidence)), state unchanged.
+  /// Extra work: count x l x samples x lines x height_levels pixel lookups at most, plus count
+  /// disc tests per lookup that finds a surface.
+  [[nodiscard]] Status predict(const ObstacleState* obstacles, std::size_t count,
+                               const OccupancyQuery& map, const DepthEvidence* depth,
+                               PathPrediction* out) noexcept;
 
   /// Forgets every track.
   void reset() noexcept { beliefs_.clear(); }
@@ -96,7 +111,7 @@ class MarkovPredictor {
 
  private:
   void predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
-                   PathPrediction* out) noexcept;
+                   const DepthSweep& depth, PathPrediction* out) noexcept;
 
   MarkovPredictorConfig config_{};
   PathLibrary library_{};

@@ -12,6 +12,7 @@
 #include "dynamap/constants.hpp"
 #include "dynamap/path_library.hpp"
 #include "dynamap/status.hpp"
+#include "dynamap/types.hpp"
 
 namespace dynamap {
 
@@ -95,6 +96,53 @@ struct ClearanceConfig {
   float self_margin = 0.15f;
 };
 
+/// The current depth frame as a second, bounded source of environment knowledge for the sweep
+/// (docs/predictor.md, "Depth image"). The map integrates hits only up to map.max_depth (5 m)
+/// and needs a few frames to mark a surface occupied, while the tracker follows people to ~8 m:
+/// a far walker's walls are unknown in the map, but they are in this frame. Each swept point is
+/// projected into the image: more than the noise margin m(d) in front of the measured surface it
+/// is seen free now; from there to m(d) + max(surface_thickness, the sample spacing) behind the
+/// surface, the path meets something; farther behind it (occluded), outside the image, with no
+/// return or out of the range below, the image knows nothing and the map's answer stands. (Only
+/// "behind the surface by more than m(d)" was tried too: corridor walls seen at a grazing angle
+/// then slip through, docs/predictor.md.) Pixels whose measured point is floor (below the
+/// obstacle's bottom + ground_clearance) or lies on a predicted obstacle (within its footprint
+/// radius + self_margin + m(d), top view: its own body and the other walkers) never count as a
+/// surface.
+struct DepthCheckConfig {
+  bool enabled = false;  ///< false: the map alone decides (DESIGN.md §4.6)
+  /// Noise margin m(d) = noise_margin + noise_quadratic * d^2 of a pixel at depth d (stereo
+  /// noise grows with d^2): a point that close in front of the surface counts as at it.
+  float noise_margin = 0.05f;       ///< m, >= 0
+  float noise_quadratic = 0.0042f;  ///< m per m^2, >= 0 (one sigma of a typical stereo camera)
+  /// m behind the measured surface (beyond the margin) that still counts as inside the object;
+  /// at least the path's sample spacing is used, so no surface is stepped over. The object's
+  /// real thickness is unknown: much more makes a path just behind a thin pillar collide.
+  float surface_thickness = 0.1f;
+  float min_depth = 0.3f;  ///< m: nearer pixels (and points) are not used
+  float max_depth = 8.0f;  ///< m: farther pixels are not used (> min_depth)
+};
+
+/// kInvalidArgument when a DepthCheckConfig field is out of range.
+[[nodiscard]] Status validate(const DepthCheckConfig& c) noexcept;
+
+/// Non-owning view of the frame being processed plus the camera model and pose: the pixels are
+/// read in place (the frame must stay alive during predict(); Pipeline::process guarantees it).
+struct DepthEvidence {
+  DepthView depth{};
+  CameraIntrinsics camera{};
+  Eigen::Matrix3f R_cam_map = Eigen::Matrix3f::Identity();  ///< map -> camera rotation
+  Eigen::Vector3f t_cam_map = Eigen::Vector3f::Zero();      ///< map -> camera translation
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();         ///< camera centre, map frame
+
+  /// View of `depth` taken with `camera` at `T_map_camera`.
+  static DepthEvidence of(const DepthView& depth, const CameraIntrinsics& camera,
+                          const Pose& T_map_camera) noexcept;
+};
+
+/// kNullData / kWrongSize (validate_depth), kNonFinite (pose or intrinsics) for an unusable view.
+[[nodiscard]] Status validate(const DepthEvidence& e) noexcept;
+
 /// Number of swept lines for a footprint of `radius` under `c`.
 std::size_t clearance_lines(const ClearanceConfig& c, float radius) noexcept;
 
@@ -110,6 +158,18 @@ struct PathClearance {
   /// m of arc length before the footprint first meets a voxel that is not observed free
   /// (unknown or occupied), <= free_distance; == free_distance when not measured.
   float observed_distance = 0.0f;
+  bool depth_blocked = false;  ///< the depth image met a surface before the map's first hit
+};
+
+/// What the depth check needs besides the frame: its settings and the obstacles whose pixels are
+/// not walls (the predict() call's own list: the swept obstacle and every other walker).
+struct DepthSweep {
+  const DepthEvidence* evidence = nullptr;  ///< nullptr: no depth check
+  DepthCheckConfig config{};
+  const ObstacleState* obstacles = nullptr;
+  std::size_t count = 0;
+
+  bool active() const noexcept { return config.enabled && evidence != nullptr; }
 };
 
 /// Sweeps the obstacle's footprint along `path` (map top view, from PathLibrary::sample) and
@@ -117,9 +177,13 @@ struct PathClearance {
 /// (and the map view has the query), before the first voxel not observed free. Work: at most
 /// (samples - 1) x lines x height_levels segment queries (lines = clearance_lines()) per measure,
 /// fewer where samples merge into chords, stopping at the first chord that hits.
+/// With an active `depth`, the same lines' points at every sample (up to the map's hit) are also
+/// looked up in the depth image: free_distance becomes the smaller of the two, and the path is
+/// free only when neither meets anything. Extra work: at most samples x lines x height_levels
+/// pixel lookups, plus depth.count disc tests for each lookup that finds a surface.
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance,
-                         bool observed = false) noexcept;
+                         bool observed = false, const DepthSweep& depth = DepthSweep{}) noexcept;
 
 /// One obstacle's prediction. For the linear predictor num_paths is 1.
 struct PathPrediction {
@@ -132,7 +196,10 @@ struct PathPrediction {
   /// per path, m before the first voxel not observed free (== free_distance when not measured)
   std::array<float, kMaxPaths> observed_distance{};
   std::uint32_t free_mask = 0;  ///< bit i set when path i is collision-free
-  float path_length = 0.0f;     ///< m, arc length of every path
+  /// bit i set when the depth image (DepthCheckConfig) met a surface on path i where the map
+  /// held none (before the map's first hit, or on a path the map holds free)
+  std::uint32_t depth_blocked_mask = 0;
+  float path_length = 0.0f;  ///< m, arc length of every path
   std::size_t num_samples = 0;
   std::array<Eigen::Vector3f, kMaxPathSamples> position;  ///< chosen path, map frame
   std::array<float, kMaxPathSamples> time{};              ///< s after the input's time
@@ -147,6 +214,10 @@ struct PathPrediction {
 /// obstacle's validate(). Shared by both predictors so their errors are identical.
 [[nodiscard]] Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
                                               const OccupancyQuery& map,
+                                              const PathPrediction* out) noexcept;
+/// The same, and then validate(*depth) when `depth` is given.
+[[nodiscard]] Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
+                                              const OccupancyQuery& map, const DepthEvidence* depth,
                                               const PathPrediction* out) noexcept;
 
 /// Copies `path` (map top view) into out->position/time/num_samples at height z.

@@ -110,7 +110,8 @@ int run(int argc, char** argv) {
   std::cout << "frame,id,age,speed,radius_pred,radius_eval,l,chosen,prob_chosen,markov_fail,"
                "linear_fail,map_free_mask,true_free_mask,any_map_free,start_dist,hit_s,hit_x,"
                "hit_y,wall_occ,wall_free,wall_unknown,chosen_free_dist,max_free_dist,"
-               "straight_free_dist,gt_dist,free_dists,observed_dists,probs,cam_x,cam_y,x,y,vx,vy\n";
+               "straight_free_dist,gt_dist,free_dists,observed_dists,probs,cam_x,cam_y,x,y,vx,vy,"
+               "depth_mask\n";
   std::map<std::uint32_t, int> age;
   auto out = std::make_unique<FrameOutput>();
   PathSamples ps;
@@ -202,7 +203,8 @@ int run(int argc, char** argv) {
                 << joined(pm.observed_distance, pm.num_paths) << ","
                 << joined(pm.probability, pm.num_paths) << "," << frame.T_map_camera.translation.x()
                 << "," << frame.T_map_camera.translation.y() << "," << start.x() << "," << start.y()
-                << "," << ob->velocity.x() << "," << ob->velocity.y() << "\n";
+                << "," << ob->velocity.x() << "," << ob->velocity.y() << ","
+                << pm.depth_blocked_mask << "\n";
     }
     age = next_age;
   }
