@@ -10,11 +10,9 @@ namespace {
 
 /// Eviction passes allowed per frame; each frees a batch of far blocks (bounded O(pool) work).
 constexpr std::size_t kMaxEvictionPassesPerFrame = 8;
-/// Stamps per frame tag: 4 * tag + {kQueued, kHit, kMiss}; 4 * 16383 + 3 fits in uint16.
+/// Stamps per frame tag: 4 * tag + {kQueued, kHit, kMiss} (occupancy_map.hpp); 4 * 16383 + 3
+/// fits in uint16.
 constexpr std::uint16_t kMaxFrameTag = 16383;
-constexpr std::uint16_t kQueued = 1;  // a free ray ends here this frame, not yet updated
-constexpr std::uint16_t kHit = 2;     // hit applied this frame
-constexpr std::uint16_t kMiss = 3;    // miss applied this frame
 
 inline std::int32_t fast_floor(float x) noexcept {
   const auto i = static_cast<std::int32_t>(x);
@@ -103,6 +101,7 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
       c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1) {
     return Status::kInvalidArgument;
   }
+  if (c.free_ray_early_stop < 0) return Status::kInvalidArgument;
 
   config_ = c;
   resolution_ = c.resolution;
@@ -654,18 +653,21 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   stats_.hits += hits;
 }
 
+template <bool kEarlyStop>
 void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
   // Counters live in locals (registers) for the hot loop and are stored once at the end.
   std::size_t visits_left = config_.max_voxel_visits_per_frame;
   std::size_t visits = 0, updates = 0, dropped_updates = 0, rays = 0, rays_dropped = 0;
+  std::size_t rays_stopped = 0;
+  const auto stop_after = static_cast<std::uint32_t>(config_.free_ray_early_stop);
   const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
   const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
   const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
   const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
   const float res = resolution_;
   constexpr float kInf = std::numeric_limits<float>::infinity();
-  IndexVec start{};
-  if (!index_of(origin_, start)) return;  // cannot happen: integrate() checked the pose
+  IndexVec camera{};
+  if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
   const std::int32_t width = cam_->width;
 
   for (std::size_t r = 0; r < ray_count_; ++r) {
@@ -684,10 +686,16 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     }
     ++rays;
 
-    // Amanatides-Woo set-up, parameter t in [0, 1] along origin -> end.
-    const Eigen::Array4f d = end - origin4_;
-    std::int32_t ix = start[0], iy = start[1], iz = start[2];
-    const std::int32_t ex = last[0], ey = last[1], ez = last[2];
+    // Amanatides-Woo set-up, parameter t in [0, 1] along from_point -> from_point + d. The exact
+    // walk goes from the camera to the end voxel. The early-stop walk goes from the end voxel back
+    // to the camera: the far part of a ray is its own, the near part mostly what earlier rays (its
+    // neighbours in pixel order) already carved, so that is where it can stop.
+    const Eigen::Array4f from_point = kEarlyStop ? end : origin4_;
+    const Eigen::Array4f d = kEarlyStop ? Eigen::Array4f(origin4_ - end) : end - origin4_;
+    const IndexVec& from = kEarlyStop ? last : camera;
+    const IndexVec& to = kEarlyStop ? camera : last;
+    std::int32_t ix = from[0], iy = from[1], iz = from[2];
+    const std::int32_t ex = to[0], ey = to[1], ez = to[2];
     const std::int32_t sx = ex >= ix ? 1 : -1, sy = ey >= iy ? 1 : -1, sz = ez >= iz ? 1 : -1;
     const auto axis_setup = [&](std::int32_t i, std::int32_t e, std::int32_t s, float o, float di,
                                 float& t_max, float& t_delta) {
@@ -701,18 +709,20 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       t_delta = res / std::fabs(di);
     };
     float tx, ty, tz, dx, dy, dz;
-    axis_setup(ix, ex, sx, origin_.x(), d.x(), tx, dx);
-    axis_setup(iy, ey, sy, origin_.y(), d.y(), ty, dy);
-    axis_setup(iz, ez, sz, origin_.z(), d.z(), tz, dz);
-    // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in the end voxel whatever the
-    // rounding; an axis that reached its end index gets t = inf. A hit ray stops before its end
-    // voxel, which already holds this frame's hit.
+    axis_setup(ix, ex, sx, from_point.x(), d.x(), tx, dx);
+    axis_setup(iy, ey, sy, from_point.y(), d.y(), ty, dy);
+    axis_setup(iz, ez, sz, from_point.z(), d.z(), tz, dz);
+    // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in its last voxel whatever the
+    // rounding; an axis that reached its end index gets t = inf. The exact walk of a hit ray
+    // stops before its end voxel, which already holds this frame's hit; the early-stop walk of
+    // a hit ray starts on it (its hit stamp keeps it from being updated).
     std::size_t steps =
         static_cast<std::size_t>(std::abs(ex - ix) + std::abs(ey - iy) + std::abs(ez - iz)) +
-        (end_is_hit ? 0u : 1u);
+        (kEarlyStop || !end_is_hit ? 1u : 0u);
+    bool capped = false;
     if (steps > visits_left) {
       steps = visits_left;
-      ++rays_dropped;
+      capped = true;
     }
     visits_left -= steps;
     visits += steps;
@@ -743,10 +753,11 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
       block = local_block(i, j, k);
       if (block != nullptr) return;
-      // Visits there are counted as dropped updates; the sink's stamps all read "updated
-      // this frame", so the hot loop needs no null test.
+      // Visits there are counted as dropped updates; the sink's stamps all read "hit this
+      // frame", so the hot loop needs no null test, and an early-stop walk is not stopped
+      // there (hits never stop a ray).
       if (sink_tag_ != frame_tag_) {
-        for (Voxel& vx : sink_.voxels) vx.stamp = miss_stamp;
+        for (Voxel& vx : sink_.voxels) vx.stamp = hit_stamp;
         sink_tag_ = frame_tag_;
       }
       block = &sink_;
@@ -757,19 +768,37 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
     };
     enter_block(bx, by, bz);
     if (n == 0) continue;
+    std::uint32_t run = 0;  // consecutive voxels found missed this frame (early stop)
+    bool stopped = false;
+    const auto miss = [&](Voxel& vx) {
+      const std::int16_t old = vx.log_odds;
+      const std::int32_t current = old == kUnknown ? 0 : old;
+      const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+      vx.log_odds = updated;
+      vx.stamp = miss_stamp;
+      ++updates;
+      // A miss can only turn occupied into free.
+      if (old > q_occupied && updated <= q_occupied) --block->occupied;
+    };
     for (;;) {
       Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
-      // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
-      // visits (near the camera) find the voxel already updated this frame.
-      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) {
-        const std::int16_t old = vx.log_odds;
-        const std::int32_t current = old == kUnknown ? 0 : old;
-        const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
-        vx.log_odds = updated;
-        vx.stamp = miss_stamp;
-        ++updates;
-        // A miss can only turn occupied into free.
-        if (old > q_occupied && updated <= q_occupied) --block->occupied;
+      if constexpr (kEarlyStop) {
+        // Only misses count towards the stop: at grazing angles a ray crosses voxels that
+        // other pixels hit, and the space beyond them may still be this ray's alone.
+        const std::uint16_t stamp = vx.stamp;
+        if (stamp == miss_stamp) {
+          if (++run == stop_after) {
+            stopped = true;
+            break;
+          }
+        } else {
+          run = 0;
+          if (stamp != hit_stamp) miss(vx);
+        }
+      } else {
+        // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
+        // visits (near the camera) find the voxel already updated this frame.
+        if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) miss(vx);
       }
       if (--n == 0) break;
       // Step along the axis with the nearest boundary (ties to the lower axis).
@@ -830,8 +859,17 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       }
     }
     leave_block();
+    if (stopped) {
+      // The voxels after the current one were never looked at: give them back to the budget.
+      visits_left += n - 1;
+      visits -= n - 1;
+      ++rays_stopped;
+    } else if (capped) {
+      ++rays_dropped;
+    }
   }
   stats_.rays += rays;
+  stats_.rays_stopped_early += rays_stopped;
   stats_.rays_dropped += rays_dropped;
   stats_.voxel_visits += visits;
   stats_.voxel_updates += updates;
@@ -908,7 +946,11 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   mark_end_points(depth);
 
   // Pass 2: free space along each ray with a 3-D DDA, within the visit budget.
-  carve_free_space(depth);
+  if (config_.free_ray_early_stop > 0) {
+    carve_free_space<true>(depth);
+  } else {
+    carve_free_space<false>(depth);
+  }
   cam_ = nullptr;
   return Status::kOk;
 }
