@@ -106,6 +106,10 @@ TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
   c = PipelineConfig{};
   c.budgets.max_pixel_stride = 0;
   EXPECT_STREQ(validate(c).field, "budgets.max_pixel_stride");
+
+  c = PipelineConfig{};
+  c.map.free_ray_early_stop = -1;
+  EXPECT_STREQ(validate(c).field, "map.free_ray_early_stop");
 }
 
 TEST(Pipeline, InitRejectsBadConfigAndProcessNeedsInit) {
