@@ -46,11 +46,13 @@ struct OccupancyMapConfig {
   /// the same voxel would carve nearly the same voxels). false casts every sampled pixel.
   bool merge_rays_per_voxel = true;
   /// Early-stop free-space carving: 0 walks every free ray from the camera to its end (exact).
-  /// N > 0 walks each ray from its end back towards the camera and stops it after N consecutive
-  /// voxels that an earlier ray of this frame already marked missed (the near parts of the rays
-  /// overlap). Approximate: a voxel that only the stopped part of a ray would cross stays as it
-  /// was this frame. Hits are never affected. See docs/occupancy_map.md for the measured cost.
-  int free_ray_early_stop = 0;
+  /// N > 0 walks each ray from its end back towards the camera (rays coarse to fine over the
+  /// image) and stops it after N consecutive voxels that an earlier ray of this frame already
+  /// marked missed (the near parts of the rays overlap). Approximate: a voxel that only the
+  /// stopped part of a ray would cross misses this frame's update. Hits are never affected.
+  /// Default 12: 2.4x fewer visits, ~99.7 % of the exact walk's misses made in the same frame
+  /// on the bench and simulated scenes, the same tracking metrics (docs/occupancy_map.md).
+  int free_ray_early_stop = 12;
 };
 
 /// Counters of the last integrate() call (work done, work dropped by caps, pool churn).
