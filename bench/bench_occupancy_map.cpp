@@ -16,11 +16,14 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include <benchmark/benchmark.h>
 #include <octomap/octomap.h>
 
+#include "carve_compare.hpp"
 #include "dynamap/occupancy_map.hpp"
 
 namespace {
@@ -35,6 +38,8 @@ using Vec3 = Eigen::Vector3f;
 
 constexpr int kFrames = 48;
 constexpr dynamap::Stamp kFrameNs = 33'333'333;
+/// The early-stop count benchmarked against the exact walk (free_ray_early_stop = 0).
+constexpr int kEarlyStop = 12;
 
 struct Plane {
   Vec3 point, normal;
@@ -171,6 +176,7 @@ void BM_Dynamap(benchmark::State& state) {
   const Dataset& d = dataset();
   OccupancyMapConfig cfg = d.config;
   cfg.merge_rays_per_voxel = state.range(0) != 0;
+  cfg.free_ray_early_stop = static_cast<int>(state.range(1));
   cfg.max_voxel_visits_per_frame = 20'000'000;  // measure the work, do not cap it
   auto map = std::make_unique<OccupancyMap>();
   if (!dynamap::ok(map->init(cfg))) state.SkipWithError("init failed");
@@ -192,7 +198,14 @@ void BM_Dynamap(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(visits), benchmark::Counter::kAvgIterations);
   state.counters["mem_MB"] = static_cast<double>(map->memory_bytes()) / 1e6;
 }
-BENCHMARK(BM_Dynamap)->ArgName("merge")->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
+// Exact walk and early stop next to each other, so one run gives both medians (a same-run
+// ratio under the same load).
+BENCHMARK(BM_Dynamap)
+    ->ArgNames({"merge", "early_stop"})
+    ->Args({1, 0})
+    ->Args({1, kEarlyStop})
+    ->Args({0, 0})
+    ->Unit(benchmark::kMillisecond);
 
 /// Deliberately bad frame: uniform random depths (0.5-5 m) defeat ray merging, so the visit cap
 /// (default 1e6) is what bounds the time.
@@ -259,10 +272,11 @@ struct RunResult {
   std::uint64_t checksum = 0;  // map state after the run (bit-exactness check across versions)
 };
 
-RunResult run_dynamap(bool merge, int passes) {
+RunResult run_dynamap(bool merge, int early_stop, int passes) {
   const Dataset& d = dataset();
   OccupancyMapConfig cfg = d.config;
   cfg.merge_rays_per_voxel = merge;
+  cfg.free_ray_early_stop = early_stop;
   if (!merge) cfg.max_voxel_visits_per_frame = 20'000'000;
   auto map = std::make_unique<OccupancyMap>();
   if (!dynamap::ok(map->init(cfg))) std::abort();
@@ -321,34 +335,51 @@ RunResult run_octomap(bool discretize, int frames) {
   return r;
 }
 
-void print_summary(bool quick) {
+/// Which dynamap runs the summary makes (--quick_summary[=exact|early]).
+enum class Quick { kOff, kBoth, kExact, kEarly };
+
+void print_dynamap(const char* what, const RunResult& r) {
+  std::printf(
+      "dynamap  %-17s: median %7.3f ms/frame [%7.3f wall], min %.3f, %5.1f M updates/s, %.0f "
+      "rays, %.0f visits/frame, checksum %llu\n",
+      what, r.median_ms, r.wall_median_ms, r.min_ms, r.updates_per_s / 1e6, r.mean_rays,
+      r.mean_visits, static_cast<unsigned long long>(r.checksum));
+}
+
+void print_summary(Quick quick) {
   const Dataset& d = dataset();
   std::printf(
       "\n== summary: %d frames 640x480, stride %d, margin %d; %.0f returns + %.0f "
       "no-return pixels per frame ==\n",
       kFrames, d.config.pixel_stride, d.config.pixel_margin,
       static_cast<double>(d.returns) / kFrames, static_cast<double>(d.no_returns) / kFrames);
-  const RunResult ours = run_dynamap(true, 5);
-  if (quick) {
-    std::printf("dynamap (merge): median %.3f ms cpu (%.3f wall), min %.3f ms cpu, checksum %llu\n",
-                ours.median_ms, ours.wall_median_ms, ours.min_ms,
-                static_cast<unsigned long long>(ours.checksum));
-    return;
+  std::printf(
+      "(per-frame medians of thread CPU time over 5 x %d frames; wall-clock medians in "
+      "brackets)\n",
+      kFrames);
+  // One mode after the other: each map needs its own consecutive frames.
+  RunResult exact, early;
+  if (quick != Quick::kEarly) {
+    exact = run_dynamap(true, 0, 5);
+    print_dynamap("(merge, exact)", exact);
   }
-  const RunResult exact = run_dynamap(false, 1);
+  if (quick != Quick::kExact) {
+    early = run_dynamap(true, kEarlyStop, 5);
+    char what[32];
+    std::snprintf(what, sizeof what, "(merge, stop %d)", kEarlyStop);
+    print_dynamap(what, early);
+  }
+  if (quick == Quick::kBoth || quick == Quick::kOff) {
+    std::printf("ratio exact / early stop: %.2fx time, %.2fx visits\n",
+                exact.median_ms / early.median_ms, exact.mean_visits / early.mean_visits);
+  }
+  if (quick != Quick::kOff) return;
+  const RunResult every = run_dynamap(false, 0, 1);
   const RunResult octo = run_octomap(false, 24);
   const RunResult octo_disc = run_octomap(true, 24);
-  std::printf("(per-frame medians of thread CPU time; wall-clock medians in brackets)\n");
-  std::printf(
-      "dynamap  (merge, default) : median %7.3f ms/frame [%7.3f wall], min %.3f, %5.1f M "
-      "updates/s, %.0f rays, %.0f visits/frame, memory %.2f MB (fixed; %zu blocks used)\n",
-      ours.median_ms, ours.wall_median_ms, ours.min_ms, ours.updates_per_s / 1e6, ours.mean_rays,
-      ours.mean_visits, static_cast<double>(ours.memory) / 1e6, ours.used);
-  std::printf(
-      "dynamap  (every ray)      : median %7.3f ms/frame [%7.3f wall], %5.1f M updates/s, %.0f "
-      "rays, %.0f visits/frame\n",
-      exact.median_ms, exact.wall_median_ms, exact.updates_per_s / 1e6, exact.mean_rays,
-      exact.mean_visits);
+  print_dynamap("(every ray)", every);
+  std::printf("memory %.2f MB (fixed; %zu blocks used)\n", static_cast<double>(exact.memory) / 1e6,
+              exact.used);
   std::printf(
       "OctoMap  insertPointCloud : median %7.3f ms/frame [%7.3f wall], memory %.2f MB (%zu "
       "nodes)\n",
@@ -356,25 +387,53 @@ void print_summary(bool quick) {
   std::printf("OctoMap  (discretize=true): median %7.3f ms/frame [%7.3f wall], memory %.2f MB\n",
               octo_disc.median_ms, octo_disc.wall_median_ms,
               static_cast<double>(octo_disc.memory) / 1e6);
-  std::printf("ratio OctoMap / dynamap (defaults)            : %.1fx\n",
-              octo.median_ms / ours.median_ms);
-  std::printf("ratio OctoMap / dynamap (every ray, no merge) : %.1fx\n",
+  // Like for like: OctoMap walks every ray exactly; discretize=true is its form of merging.
+  // Early stop is an approximation OctoMap has no counterpart for, so it gets its own line.
+  std::printf("ratio OctoMap / dynamap (merge, exact)        : %.1fx\n",
               octo.median_ms / exact.median_ms);
-  std::printf("ratio OctoMap discretize / dynamap merge      : %.1fx\n",
-              octo_disc.median_ms / ours.median_ms);
+  std::printf("ratio OctoMap / dynamap (merge, stop %d)       : %.1fx\n", kEarlyStop,
+              octo.median_ms / early.median_ms);
+  std::printf("ratio OctoMap / dynamap (every ray, no merge) : %.1fx\n",
+              octo.median_ms / every.median_ms);
+  std::printf("ratio OctoMap discretize / dynamap merge exact: %.1fx\n",
+              octo_disc.median_ms / exact.median_ms);
+}
+
+/// Accuracy cost of early-stop carving on this scene (tools/diag/carve_compare.hpp): `passes`
+/// times over the 48 frames, exact mode vs each count in `stops`.
+void print_accuracy(const std::vector<int>& stops, int passes) {
+  const Dataset& d = dataset();
+  dynamap::diag::CarveComparison cmp(d.config, stops);
+  dynamap::Stamp t = 0;
+  for (int p = 0; p < passes; ++p) {
+    for (const Frame& f : d.frames) {
+      if (!cmp.add_frame(d.view(f), d.cam, f.pose, t += kFrameNs)) std::abort();
+    }
+  }
+  cmp.print(stdout, "bench");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   bool summary = true;
-  bool quick = false;
+  Quick quick = Quick::kOff;
+  std::vector<int> accuracy_stops;
   std::vector<char*> args;
   for (int i = 0; i < argc; ++i) {
     if (std::strcmp(argv[i], "--skip_summary") == 0) {
       summary = false;
     } else if (std::strcmp(argv[i], "--quick_summary") == 0) {
-      quick = true;  // dynamap only (development)
+      quick = Quick::kBoth;  // dynamap only (development)
+    } else if (std::strcmp(argv[i], "--quick_summary=exact") == 0) {
+      quick = Quick::kExact;  // one mode only, e.g. for callgrind
+    } else if (std::strcmp(argv[i], "--quick_summary=early") == 0) {
+      quick = Quick::kEarly;
+    } else if (std::strncmp(argv[i], "--accuracy=", 11) == 0) {
+      // Comma-separated early-stop counts, e.g. --accuracy=1,2,3; prints the comparison only.
+      std::stringstream list(argv[i] + 11);
+      std::string item;
+      while (std::getline(list, item, ',')) accuracy_stops.push_back(std::stoi(item));
     } else {
       args.push_back(argv[i]);
     }
@@ -383,6 +442,10 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&n, args.data());
   if (benchmark::ReportUnrecognizedArguments(n, args.data())) return 1;
   (void)dataset();  // render once, outside any timing
+  if (!accuracy_stops.empty()) {
+    print_accuracy(accuracy_stops, 2);
+    return 0;
+  }
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   if (summary) print_summary(quick);

@@ -10,11 +10,9 @@ namespace {
 
 /// Eviction passes allowed per frame; each frees a batch of far blocks (bounded O(pool) work).
 constexpr std::size_t kMaxEvictionPassesPerFrame = 8;
-/// Stamps per frame tag: 4 * tag + {kQueued, kHit, kMiss}; 4 * 16383 + 3 fits in uint16.
+/// Stamps per frame tag: 4 * tag + {kQueued, kHit, kMiss} (occupancy_map.hpp); 4 * 16383 + 3
+/// fits in uint16.
 constexpr std::uint16_t kMaxFrameTag = 16383;
-constexpr std::uint16_t kQueued = 1;  // a free ray ends here this frame, not yet updated
-constexpr std::uint16_t kHit = 2;     // hit applied this frame
-constexpr std::uint16_t kMiss = 3;    // miss applied this frame
 
 inline std::int32_t fast_floor(float x) noexcept {
   const auto i = static_cast<std::int32_t>(x);
@@ -103,6 +101,7 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
       c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1) {
     return Status::kInvalidArgument;
   }
+  if (c.free_ray_early_stop < 0) return Status::kInvalidArgument;
 
   config_ = c;
   resolution_ = c.resolution;
@@ -654,114 +653,159 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   stats_.hits += hits;
 }
 
+template <bool kEarlyStop>
 void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
   // Counters live in locals (registers) for the hot loop and are stored once at the end.
   std::size_t visits_left = config_.max_voxel_visits_per_frame;
   std::size_t visits = 0, updates = 0, dropped_updates = 0, rays = 0, rays_dropped = 0;
+  std::size_t rays_stopped = 0;
+  const auto stop_after = static_cast<std::uint32_t>(config_.free_ray_early_stop);
   const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
   const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
   const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
   const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
   const float res = resolution_;
   constexpr float kInf = std::numeric_limits<float>::infinity();
-  IndexVec start{};
-  if (!index_of(origin_, start)) return;  // cannot happen: integrate() checked the pose
+  IndexVec camera{};
+  if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
   const std::int32_t width = cam_->width;
 
-  for (std::size_t r = 0; r < ray_count_; ++r) {
-    if (visits_left == 0) {
-      rays_dropped += ray_count_ - r;
-      break;
+  // Early stop walks the rays coarse to fine over the sampled pixel grid: first the pixels on
+  // the lattice 2^kOrderLevels samples apart, then each finer lattice's new pixels (image
+  // order within a level). In plain image order a ray stops as soon as it has run N voxels
+  // inside its neighbour's tube, although the two lines still part at voxel corners nearer
+  // the camera; here the rays that walk first are far apart, so they walk almost to the
+  // camera and carve the near part densely before the finer rays stop against them. For the
+  // same number of visits it skips a third to half fewer misses (docs/occupancy_map.md).
+  constexpr std::uint32_t kOrderLevels = 4;
+  constexpr int kLevelShift = 28;  // rays_ entries: pass number above the pixel index
+  constexpr std::uint32_t kPixelMask = (1u << kLevelShift) - 1;
+  static_assert(kMaxImageWidth * kMaxImageHeight <= (1 << kLevelShift), "pixel index bits");
+  if constexpr (kEarlyStop) {
+    const auto margin = static_cast<std::uint32_t>(config_.pixel_margin);
+    const auto stride = static_cast<std::uint32_t>(config_.pixel_stride);
+    for (std::size_t r = 0; r < ray_count_; ++r) {
+      const std::uint32_t u = rays_[r] % static_cast<std::uint32_t>(width);
+      const std::uint32_t v = rays_[r] / static_cast<std::uint32_t>(width);
+      // Level of sampled pixel (k, j): the trailing zero bits k and j share, at most
+      // kOrderLevels.
+      const std::uint32_t kj = ((u - margin) / stride) | ((v - margin) / stride);
+      std::uint32_t level = 0;
+      while (level < kOrderLevels && ((kj >> level) & 1u) == 0) ++level;
+      rays_[r] |= (kOrderLevels - level) << kLevelShift;
     }
-    const int u = static_cast<int>(rays_[r] % static_cast<std::uint32_t>(width));
-    const int v = static_cast<int>(rays_[r] / static_cast<std::uint32_t>(width));
-    Eigen::Array4f end;
-    bool end_is_hit = false;
-    IndexVec last{};
-    if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v), end,
-                   last, end_is_hit)) {
-      continue;
-    }
-    ++rays;
-
-    // Amanatides-Woo set-up, parameter t in [0, 1] along origin -> end.
-    const Eigen::Array4f d = end - origin4_;
-    std::int32_t ix = start[0], iy = start[1], iz = start[2];
-    const std::int32_t ex = last[0], ey = last[1], ez = last[2];
-    const std::int32_t sx = ex >= ix ? 1 : -1, sy = ey >= iy ? 1 : -1, sz = ez >= iz ? 1 : -1;
-    const auto axis_setup = [&](std::int32_t i, std::int32_t e, std::int32_t s, float o, float di,
-                                float& t_max, float& t_delta) {
-      if (i == e || di == 0.f) {
-        t_max = kInf;
-        t_delta = kInf;
-        return;
+  }
+  std::size_t processed = 0;
+  const std::uint32_t passes = kEarlyStop ? kOrderLevels + 1 : 1;
+  for (std::uint32_t pass = 0; pass < passes; ++pass) {
+    for (std::size_t r = 0; r < ray_count_; ++r) {
+      std::uint32_t entry = rays_[r];
+      if constexpr (kEarlyStop) {
+        if ((entry >> kLevelShift) != pass) continue;
+        entry &= kPixelMask;
       }
-      const float boundary = static_cast<float>(i + (s > 0 ? 1 : 0)) * res;
-      t_max = (boundary - o) / di;
-      t_delta = res / std::fabs(di);
-    };
-    float tx, ty, tz, dx, dy, dz;
-    axis_setup(ix, ex, sx, origin_.x(), d.x(), tx, dx);
-    axis_setup(iy, ey, sy, origin_.y(), d.y(), ty, dy);
-    axis_setup(iz, ez, sz, origin_.z(), d.z(), tz, dz);
-    // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in the end voxel whatever the
-    // rounding; an axis that reached its end index gets t = inf. A hit ray stops before its end
-    // voxel, which already holds this frame's hit.
-    std::size_t steps =
-        static_cast<std::size_t>(std::abs(ex - ix) + std::abs(ey - iy) + std::abs(ez - iz)) +
-        (end_is_hit ? 0u : 1u);
-    if (steps > visits_left) {
-      steps = visits_left;
-      ++rays_dropped;
-    }
-    visits_left -= steps;
-    visits += steps;
-
-    // The walk keeps the block, the voxel's index inside it and, per axis, the steps left to
-    // the next event of that axis: its block face or its last step, whichever comes first.
-    // Between events a step is one axis choice, one index add, one t add and one decrement;
-    // steps, end indices and block faces are only looked at in the (rare) event branch. The t
-    // values get the same float additions in the same order as the plain walk, so the voxels
-    // are the same.
-    constexpr std::int32_t kM = kBlockEdge - 1;
-    std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
-    std::int32_t rx = std::abs(ex - ix), ry = std::abs(ey - iy), rz = std::abs(ez - iz);
-    const auto to_boundary = [](std::int32_t i, std::int32_t s) {
-      return s > 0 ? kBlockEdge - (i & kM) : (i & kM) + 1;
-    };
-    std::int32_t cx = to_boundary(ix, sx), cy = to_boundary(iy, sy), cz = to_boundary(iz, sz);
-    // An axis without steps has t = inf and is never chosen, so its event count never runs out.
-    const auto to_event = [](std::int32_t face, std::int32_t left) {
-      return left == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(face, left);
-    };
-    std::int32_t kx = to_event(cx, rx), ky = to_event(cy, ry), kz = to_event(cz, rz);
-    const std::int32_t ox = sx, oy = sy * kBlockEdge, oz = sz * kBlockEdge * kBlockEdge;
-    std::int32_t li = static_cast<std::int32_t>(local_index(ix, iy, iz));
-    Block* block = nullptr;
-    std::size_t n = steps;       // visits left on this ray, including the current voxel
-    std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
-    const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
-      block = local_block(i, j, k);
-      if (block != nullptr) return;
-      // Visits there are counted as dropped updates; the sink's stamps all read "updated
-      // this frame", so the hot loop needs no null test.
-      if (sink_tag_ != frame_tag_) {
-        for (Voxel& vx : sink_.voxels) vx.stamp = miss_stamp;
-        sink_tag_ = frame_tag_;
+      if (visits_left == 0) {
+        rays_dropped += ray_count_ - processed;
+        pass = passes;  // the budget is spent: no later pass either
+        break;
       }
-      block = &sink_;
-      sink_entry = n;
-    };
-    const auto leave_block = [&] {
-      if (block == &sink_) dropped_updates += sink_entry - n;
-    };
-    enter_block(bx, by, bz);
-    if (n == 0) continue;
-    for (;;) {
-      Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
-      // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
-      // visits (near the camera) find the voxel already updated this frame.
-      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) {
+      ++processed;
+      const int u = static_cast<int>(entry % static_cast<std::uint32_t>(width));
+      const int v = static_cast<int>(entry / static_cast<std::uint32_t>(width));
+      Eigen::Array4f end;
+      bool end_is_hit = false;
+      IndexVec last{};
+      if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v),
+                     end, last, end_is_hit)) {
+        continue;
+      }
+      ++rays;
+
+      // Amanatides-Woo set-up, parameter t in [0, 1] along from_point -> from_point + d. The exact
+      // walk goes from the camera to the end voxel. The early-stop walk goes from the end voxel
+      // back to the camera: the far part of a ray is its own, the near part mostly what earlier
+      // rays (its neighbours in pixel order) already carved, so that is where it can stop.
+      const Eigen::Array4f from_point = kEarlyStop ? end : origin4_;
+      const Eigen::Array4f d = kEarlyStop ? Eigen::Array4f(origin4_ - end) : end - origin4_;
+      const IndexVec& from = kEarlyStop ? last : camera;
+      const IndexVec& to = kEarlyStop ? camera : last;
+      std::int32_t ix = from[0], iy = from[1], iz = from[2];
+      const std::int32_t ex = to[0], ey = to[1], ez = to[2];
+      const std::int32_t sx = ex >= ix ? 1 : -1, sy = ey >= iy ? 1 : -1, sz = ez >= iz ? 1 : -1;
+      const auto axis_setup = [&](std::int32_t i, std::int32_t e, std::int32_t s, float o, float di,
+                                  float& t_max, float& t_delta) {
+        if (i == e || di == 0.f) {
+          t_max = kInf;
+          t_delta = kInf;
+          return;
+        }
+        const float boundary = static_cast<float>(i + (s > 0 ? 1 : 0)) * res;
+        t_max = (boundary - o) / di;
+        t_delta = res / std::fabs(di);
+      };
+      float tx, ty, tz, dx, dy, dz;
+      axis_setup(ix, ex, sx, from_point.x(), d.x(), tx, dx);
+      axis_setup(iy, ey, sy, from_point.y(), d.y(), ty, dy);
+      axis_setup(iz, ez, sz, from_point.z(), d.z(), tz, dz);
+      // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in its last voxel whatever the
+      // rounding; an axis that reached its end index gets t = inf. The exact walk of a hit ray
+      // stops before its end voxel, which already holds this frame's hit; the early-stop walk of
+      // a hit ray starts on it (its hit stamp keeps it from being updated).
+      std::size_t steps =
+          static_cast<std::size_t>(std::abs(ex - ix) + std::abs(ey - iy) + std::abs(ez - iz)) +
+          (kEarlyStop || !end_is_hit ? 1u : 0u);
+      bool capped = false;
+      if (steps > visits_left) {
+        steps = visits_left;
+        capped = true;
+      }
+      visits_left -= steps;
+      visits += steps;
+
+      // The walk keeps the block, the voxel's index inside it and, per axis, the steps left to
+      // the next event of that axis: its block face or its last step, whichever comes first.
+      // Between events a step is one axis choice, one index add, one t add and one decrement;
+      // steps, end indices and block faces are only looked at in the (rare) event branch. The t
+      // values get the same float additions in the same order as the plain walk, so the voxels
+      // are the same.
+      constexpr std::int32_t kM = kBlockEdge - 1;
+      std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
+      std::int32_t rx = std::abs(ex - ix), ry = std::abs(ey - iy), rz = std::abs(ez - iz);
+      const auto to_boundary = [](std::int32_t i, std::int32_t s) {
+        return s > 0 ? kBlockEdge - (i & kM) : (i & kM) + 1;
+      };
+      std::int32_t cx = to_boundary(ix, sx), cy = to_boundary(iy, sy), cz = to_boundary(iz, sz);
+      // An axis without steps has t = inf and is never chosen, so its event count never runs out.
+      const auto to_event = [](std::int32_t face, std::int32_t left) {
+        return left == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(face, left);
+      };
+      std::int32_t kx = to_event(cx, rx), ky = to_event(cy, ry), kz = to_event(cz, rz);
+      const std::int32_t ox = sx, oy = sy * kBlockEdge, oz = sz * kBlockEdge * kBlockEdge;
+      std::int32_t li = static_cast<std::int32_t>(local_index(ix, iy, iz));
+      Block* block = nullptr;
+      std::size_t n = steps;       // visits left on this ray, including the current voxel
+      std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
+      const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
+        block = local_block(i, j, k);
+        if (block != nullptr) return;
+        // Visits there are counted as dropped updates; the sink's stamps all read "hit this
+        // frame", so the hot loop needs no null test, and an early-stop walk is not stopped
+        // there (hits never stop a ray).
+        if (sink_tag_ != frame_tag_) {
+          for (Voxel& vx : sink_.voxels) vx.stamp = hit_stamp;
+          sink_tag_ = frame_tag_;
+        }
+        block = &sink_;
+        sink_entry = n;
+      };
+      const auto leave_block = [&] {
+        if (block == &sink_) dropped_updates += sink_entry - n;
+      };
+      enter_block(bx, by, bz);
+      if (n == 0) continue;
+      std::uint32_t run = 0;  // consecutive voxels found missed this frame (early stop)
+      bool stopped = false;
+      const auto miss = [&](Voxel& vx) {
         const std::int16_t old = vx.log_odds;
         const std::int32_t current = old == kUnknown ? 0 : old;
         const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
@@ -770,68 +814,98 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
         ++updates;
         // A miss can only turn occupied into free.
         if (old > q_occupied && updated <= q_occupied) --block->occupied;
+      };
+      for (;;) {
+        Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
+        if constexpr (kEarlyStop) {
+          // Only misses count towards the stop: at grazing angles a ray crosses voxels that
+          // other pixels hit, and the space beyond them may still be this ray's alone.
+          const std::uint16_t stamp = vx.stamp;
+          if (stamp == miss_stamp) {
+            if (++run == stop_after) {
+              stopped = true;
+              break;
+            }
+          } else {
+            run = 0;
+            if (stamp != hit_stamp) miss(vx);
+          }
+        } else {
+          // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
+          // visits (near the camera) find the voxel already updated this frame.
+          if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) miss(vx);
+        }
+        if (--n == 0) break;
+        // Step along the axis with the nearest boundary (ties to the lower axis).
+        if ((tx <= ty) & (tx <= tz)) {
+          li += ox;
+          if (--kx != 0) {
+            tx += dx;
+            continue;
+          }
+          const std::int32_t done = std::min(cx, rx);
+          rx -= done;
+          cx -= done;
+          tx = rx == 0 ? kInf : tx + dx;
+          if (cx == 0) {
+            li -= kBlockEdge * ox;  // wrap to the other face of the next block
+            bx += sx;
+            cx = kBlockEdge;
+            leave_block();
+            enter_block(bx, by, bz);
+          }
+          kx = to_event(cx, rx);
+        } else if (ty <= tz) {
+          li += oy;
+          if (--ky != 0) {
+            ty += dy;
+            continue;
+          }
+          const std::int32_t done = std::min(cy, ry);
+          ry -= done;
+          cy -= done;
+          ty = ry == 0 ? kInf : ty + dy;
+          if (cy == 0) {
+            li -= kBlockEdge * oy;
+            by += sy;
+            cy = kBlockEdge;
+            leave_block();
+            enter_block(bx, by, bz);
+          }
+          ky = to_event(cy, ry);
+        } else {
+          li += oz;
+          if (--kz != 0) {
+            tz += dz;
+            continue;
+          }
+          const std::int32_t done = std::min(cz, rz);
+          rz -= done;
+          cz -= done;
+          tz = rz == 0 ? kInf : tz + dz;
+          if (cz == 0) {
+            li -= kBlockEdge * oz;
+            bz += sz;
+            cz = kBlockEdge;
+            leave_block();
+            enter_block(bx, by, bz);
+          }
+          kz = to_event(cz, rz);
+        }
       }
-      if (--n == 0) break;
-      // Step along the axis with the nearest boundary (ties to the lower axis).
-      if ((tx <= ty) & (tx <= tz)) {
-        li += ox;
-        if (--kx != 0) {
-          tx += dx;
-          continue;
-        }
-        const std::int32_t done = std::min(cx, rx);
-        rx -= done;
-        cx -= done;
-        tx = rx == 0 ? kInf : tx + dx;
-        if (cx == 0) {
-          li -= kBlockEdge * ox;  // wrap to the other face of the next block
-          bx += sx;
-          cx = kBlockEdge;
-          leave_block();
-          enter_block(bx, by, bz);
-        }
-        kx = to_event(cx, rx);
-      } else if (ty <= tz) {
-        li += oy;
-        if (--ky != 0) {
-          ty += dy;
-          continue;
-        }
-        const std::int32_t done = std::min(cy, ry);
-        ry -= done;
-        cy -= done;
-        ty = ry == 0 ? kInf : ty + dy;
-        if (cy == 0) {
-          li -= kBlockEdge * oy;
-          by += sy;
-          cy = kBlockEdge;
-          leave_block();
-          enter_block(bx, by, bz);
-        }
-        ky = to_event(cy, ry);
-      } else {
-        li += oz;
-        if (--kz != 0) {
-          tz += dz;
-          continue;
-        }
-        const std::int32_t done = std::min(cz, rz);
-        rz -= done;
-        cz -= done;
-        tz = rz == 0 ? kInf : tz + dz;
-        if (cz == 0) {
-          li -= kBlockEdge * oz;
-          bz += sz;
-          cz = kBlockEdge;
-          leave_block();
-          enter_block(bx, by, bz);
-        }
-        kz = to_event(cz, rz);
+      leave_block();
+      if (stopped) {
+        // The voxels after the current one were never looked at: give them back to the budget.
+        visits_left += n - 1;
+        visits -= n - 1;
+        ++rays_stopped;
+      } else if (capped) {
+        ++rays_dropped;
       }
     }
-    leave_block();
   }
   stats_.rays += rays;
+  stats_.rays_stopped_early += rays_stopped;
   stats_.rays_dropped += rays_dropped;
   stats_.voxel_visits += visits;
   stats_.voxel_updates += updates;
@@ -908,7 +982,11 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   mark_end_points(depth);
 
   // Pass 2: free space along each ray with a 3-D DDA, within the visit budget.
-  carve_free_space(depth);
+  if (config_.free_ray_early_stop > 0) {
+    carve_free_space<true>(depth);
+  } else {
+    carve_free_space<false>(depth);
+  }
   cam_ = nullptr;
   return Status::kOk;
 }

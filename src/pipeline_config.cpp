@@ -63,6 +63,8 @@ ConfigError validate(const PipelineConfig& c) noexcept {
             "map.max_rays_per_frame", "must be in 1..kMaxRaysPerFrame");
   k.require(c.map.max_voxel_visits_per_frame >= 1, "map.max_voxel_visits_per_frame",
             "must be >= 1");
+  k.require(c.map.free_ray_early_stop >= 0, "map.free_ray_early_stop",
+            "must be >= 0 (0: exact walk from the camera)");
 
   // Detector.
   k.require(c.detector.bins >= 1 && c.detector.bins <= kMaxUMapBins, "detector.bins",

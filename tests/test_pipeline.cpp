@@ -110,6 +110,10 @@ TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
   c = PipelineConfig{};
   c.predictor.unknown_weight = 1.5f;
   EXPECT_STREQ(validate(c).field, "predictor.unknown_weight");
+
+  c = PipelineConfig{};
+  c.map.free_ray_early_stop = -1;
+  EXPECT_STREQ(validate(c).field, "map.free_ray_early_stop");
 }
 
 TEST(Pipeline, InitRejectsBadConfigAndProcessNeedsInit) {

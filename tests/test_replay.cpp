@@ -164,5 +164,14 @@ TEST(Replay, BadMotionModelIsRefused) {
   EXPECT_NE(r.output.find("tracker"), std::string::npos) << r.output;
 }
 
+TEST(Replay, NegativeEarlyStopCountIsRefused) {
+  const std::string params = ::testing::TempDir() + "bad_early_stop.yaml";
+  std::ofstream(params) << "map:\n  free_ray_early_stop: -3\n";
+  const RunResult r =
+      run_replay(corridor_sequence() + " --out " + fresh_dir("es_out") + " --params " + params);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("map.free_ray_early_stop"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace dynamap::tools

@@ -45,6 +45,14 @@ struct OccupancyMapConfig {
   /// Cast one representative ray per distinct end voxel per frame (the other pixels ending in
   /// the same voxel would carve nearly the same voxels). false casts every sampled pixel.
   bool merge_rays_per_voxel = true;
+  /// Early-stop free-space carving: 0 walks every free ray from the camera to its end (exact).
+  /// N > 0 walks each ray from its end back towards the camera (rays coarse to fine over the
+  /// image) and stops it after N consecutive voxels that an earlier ray of this frame already
+  /// marked missed (the near parts of the rays overlap). Approximate: a voxel that only the
+  /// stopped part of a ray would cross misses this frame's update. Hits are never affected.
+  /// Default 12: 2.4x fewer visits, ~99.7 % of the exact walk's misses made in the same frame
+  /// on the bench and simulated scenes, the same tracking metrics (docs/occupancy_map.md).
+  int free_ray_early_stop = 12;
 };
 
 /// Counters of the last integrate() call (work done, work dropped by caps, pool churn).
@@ -57,10 +65,11 @@ struct IntegrationStats {
   std::size_t blocks_allocated = 0;
   std::size_t blocks_evicted = 0;
   // Added beyond the shared contract:
-  std::size_t pixels_sampled = 0;   ///< sampled pixels that produced a ray (hit or free)
-  std::size_t rays_merged = 0;      ///< pixels whose ray was merged into another one
-  std::size_t hits = 0;             ///< hit updates applied
-  std::size_t updates_dropped = 0;  ///< voxel updates lost because no block could be allocated
+  std::size_t pixels_sampled = 0;      ///< sampled pixels that produced a ray (hit or free)
+  std::size_t rays_merged = 0;         ///< pixels whose ray was merged into another one
+  std::size_t hits = 0;                ///< hit updates applied
+  std::size_t updates_dropped = 0;     ///< voxel updates lost because no block could be allocated
+  std::size_t rays_stopped_early = 0;  ///< free_ray_early_stop: rays stopped before the camera
 };
 
 /// The static occupancy map. Single-threaded: integrate() and clear_box() mutate; the const
@@ -134,6 +143,10 @@ class OccupancyMap {
   /// Whole map, tools only: f(VoxelKey, const Eigen::Vector3f& centre) for each occupied voxel.
   template <class F>
   void for_each_occupied(F&& f) const;
+  /// Tests and tools only (O(pool)): f(VoxelKey, bool hit) for each voxel the last integrate()
+  /// updated, hit (true) or miss (false).
+  template <class F>
+  void for_each_updated_last_frame(F&& f) const;
 
   // Added beyond the shared contract.
   const OccupancyMapConfig& config() const noexcept { return config_; }
@@ -157,6 +170,10 @@ class OccupancyMap {
     std::uint16_t stamp;
   };
   static constexpr std::int16_t kUnknown = INT16_MIN;  ///< log-odds sentinel: never observed
+  // Voxel stamps are 4 * frame tag + one of these, so a new frame needs no clearing.
+  static constexpr std::uint16_t kQueued = 1;  ///< a free ray ends here this frame, not updated
+  static constexpr std::uint16_t kHit = 2;     ///< hit applied this frame
+  static constexpr std::uint16_t kMiss = 3;    ///< miss applied this frame
 
   struct Block {
     std::array<Voxel, kBlockVoxels> voxels;
@@ -232,6 +249,7 @@ class OccupancyMap {
     return ((static_cast<float>(v) - cy_) * inv_fy_) * down_dir_ + forward_dir_;
   }
   void mark_end_points(const DepthView& depth) noexcept;
+  template <bool kEarlyStop>
   void carve_free_space(const DepthView& depth) noexcept;
 
   // --- configuration (derived at init) ---
@@ -374,6 +392,26 @@ void OccupancyMap::for_each_occupied(F&& f) const {
           f(pack(idx[0], idx[1], idx[2]), c);
         }
       }
+    }
+  }
+}
+
+template <class F>
+void OccupancyMap::for_each_updated_last_frame(F&& f) const {
+  if (!initialized_ || frames_ == 0) return;
+  const auto hit_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kHit);
+  const auto miss_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kMiss);
+  for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
+    if (!slot_used_[s]) continue;
+    const Block& b = pool_[s];
+    for (std::size_t li = 0; li < kBlockVoxels; ++li) {
+      const std::uint16_t stamp = b.voxels[li].stamp;
+      if (stamp != hit_stamp && stamp != miss_stamp) continue;
+      const auto i = static_cast<std::int32_t>(li & (kBlockEdge - 1));
+      const auto j = static_cast<std::int32_t>((li >> kBlockBits) & (kBlockEdge - 1));
+      const auto k = static_cast<std::int32_t>(li >> (2 * kBlockBits));
+      f(pack(b.index[0] * kBlockEdge + i, b.index[1] * kBlockEdge + j, b.index[2] * kBlockEdge + k),
+        stamp == hit_stamp);
     }
   }
 }

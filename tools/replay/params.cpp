@@ -84,6 +84,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(map.max_blocks),
       DYNAMAP_PARAM(map.max_rays_per_frame),
       DYNAMAP_PARAM(map.max_voxel_visits_per_frame),
+      DYNAMAP_PARAM(map.free_ray_early_stop),
       DYNAMAP_PARAM(detector.bins),
       DYNAMAP_PARAM(detector.d_min),
       DYNAMAP_PARAM(detector.d_max),
