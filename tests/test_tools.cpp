@@ -125,6 +125,27 @@ void write_small_sequence(const TempDir& dir) {
 }
 }  // namespace
 
+// Output directories are created with their parents; a path that cannot be one is an error
+// that names it.
+TEST(TextIo, MakeDirectoriesCreatesParentsAndNamesTheFailingPath) {
+  const fs::path root = fs::path(::testing::TempDir()) / "dynamap_mkdirs";
+  fs::remove_all(root);
+  const std::string nested = (root / "a" / "b").string();
+  make_directories(nested);
+  EXPECT_TRUE(fs::is_directory(nested));
+  make_directories(nested);  // already there: fine
+  const std::string file = (root / "a" / "f").string();
+  std::ofstream(file) << "x";
+  try {
+    make_directories(file + "/sub", "cannot create the output directory");
+    FAIL() << "a directory under a regular file was accepted";
+  } catch (const ToolError& e) {
+    EXPECT_NE(std::string(e.what()).find(file + "/sub: cannot create the output directory"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(SequenceReader, InterpolatesPosesAndSkipsImagesWithoutPose) {
   TempDir dir;
   write_small_sequence(dir);

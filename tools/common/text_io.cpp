@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 
 namespace dynamap::tools {
@@ -95,6 +96,12 @@ std::int64_t stamp_key(double seconds) {
 std::string join_path(const std::string& dir, const std::string& name) {
   if (dir.empty() || (!name.empty() && name.front() == '/')) return name;
   return dir.back() == '/' ? dir + name : dir + "/" + name;
+}
+
+void make_directories(const std::string& path, const char* what) {
+  std::error_code ec;
+  std::filesystem::create_directories(path, ec);
+  if (ec || !std::filesystem::is_directory(path, ec)) throw ToolError(path + ": " + what);
 }
 
 bool file_exists(const std::string& path) {

@@ -49,4 +49,8 @@ std::string join_path(const std::string& dir, const std::string& name);
 
 bool file_exists(const std::string& path);
 
+/// Creates a directory and any missing parents (like mkdir -p); throws ToolError naming
+/// `what` and the path when it cannot.
+void make_directories(const std::string& path, const char* what = "cannot create directory");
+
 }  // namespace dynamap::tools

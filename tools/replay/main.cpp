@@ -18,8 +18,6 @@
 #include <string>
 #include <vector>
 
-#include <sys/stat.h>
-
 #include "common/obstacles.hpp"
 #include "common/png_io.hpp"
 #include "common/results.hpp"
@@ -125,12 +123,6 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
     return false;
   }
   return true;
-}
-
-void make_dir(const std::string& path) {
-  if (mkdir(path.c_str(), 0755) != 0 && errno != EEXIST) {
-    throw ToolError(path + ": cannot create the output directory");
-  }
 }
 
 std::ofstream open_out(const std::string& path) {
@@ -267,8 +259,9 @@ int run(const Options& o) {
   const std::string truth_path = join_path(o.seq, "obstacles.txt");
   if (file_exists(truth_path)) truth = read_obstacles(truth_path);
 
-  make_dir(o.out);
-  if (o.picture_every > 0) make_dir(join_path(o.out, "frames"));
+  make_directories(o.out, "cannot create the output directory");
+  if (o.picture_every > 0)
+    make_directories(join_path(o.out, "frames"), "cannot create the output directory");
   std::ofstream tracks = open_out(join_path(o.out, "tracks.csv"));
   std::ofstream preds = open_out(join_path(o.out, "predictions.csv"));
   std::ofstream linear = open_out(join_path(o.out, "predictions_linear.csv"));

@@ -1,7 +1,5 @@
 #include "sim/writer.hpp"
 
-#include <sys/stat.h>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,12 +12,6 @@
 
 namespace dynamap::tools::sim {
 namespace {
-
-void make_dir(const std::string& path) {
-  if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST) {
-    throw ToolError(path + ": cannot create directory");
-  }
-}
 
 std::string fmt_stamp(double t) {
   char buf[64];
@@ -52,8 +44,8 @@ SimulateSummary simulate(const Scene& scene, const std::string& out_dir,
                          const SimulateOptions& opt) {
   if (opt.frames <= 0) throw ToolError("--frames must be positive");
   const auto t_begin = std::chrono::steady_clock::now();
-  make_dir(out_dir);
-  make_dir(join_path(out_dir, "depth"));
+  make_directories(out_dir);
+  make_directories(join_path(out_dir, "depth"));
   const CameraModel cam = sim_camera_model();
   write_camera_file(join_path(out_dir, "camera.txt"), cam);
   write_static_world(join_path(out_dir, "static_world.txt"), scene.world);
