@@ -62,13 +62,42 @@ TEST(Replay, RunsEndToEndAndTheMetricsShowAWorkingTracker) {
   }
   const eval::EvalResult m = eval::evaluate(corridor_sequence(), out);
   ASSERT_GT(m.gt_count, 20u);
-  // Sanity at a small scale (the goals themselves are measured on full scenes by
-  // scripts/paper_tables.sh and written down in docs/evaluation.md): walkers are found and
-  // labelled dynamic, and nothing static is.
-  EXPECT_GE(m.recall, 0.6);
+  // Issue 8's goals at a small scale (the full-scene figures come from
+  // scripts/paper_tables.sh, docs/evaluation.md). Measured here: position 0.028 m, velocity
+  // 0.057 m/s, precision 1.0, recall 0.879. Recall is held to 0.85, not the goal's 0.9: the
+  // first ~10 frames of each walker (the tracker's start-up before the dynamic label) weigh
+  // more in 120 frames than in 300 (env_c full: 0.948), see docs/evaluation.md.
+  EXPECT_LE(m.position_error, 0.08);
+  EXPECT_LE(m.velocity_error, 0.06);
   EXPECT_GE(m.precision, 0.9);
-  EXPECT_LE(m.position_error, 0.3);
-  EXPECT_LE(m.velocity_error, 0.4);
+  EXPECT_GE(m.recall, 0.85);
+}
+
+// People who never move are never labelled dynamic (issue 8's `standing` goal, 60 frames).
+TEST(Replay, StandingPeopleAreNeverLabelledDynamic) {
+  const std::string seq = fresh_dir("standing");
+  sim::SimulateOptions o;
+  o.frames = 60;
+  o.picture = false;
+  (void)sim::simulate(sim::make_scene("standing", 1), seq, o);
+  const std::string out = fresh_dir("standing_out");
+  const RunResult r = run_replay(seq + " --out " + out + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream tracks(join_path(out, "tracks.csv"));
+  std::string line;
+  ASSERT_TRUE(std::getline(tracks, line));  // header
+  ASSERT_EQ(line.rfind(",dynamic,path"), line.size() - 13) << line;
+  std::size_t rows = 0, dynamic_rows = 0;
+  while (std::getline(tracks, line)) {
+    ++rows;
+    // The last two columns are "dynamic,path".
+    const std::size_t last = line.rfind(',');
+    ASSERT_NE(last, std::string::npos);
+    const std::size_t flag = line.rfind(',', last - 1);
+    if (line.compare(flag + 1, last - flag - 1, "0") != 0) ++dynamic_rows;
+  }
+  EXPECT_GT(rows, 60u);  // the people are tracked (as static obstacles)
+  EXPECT_EQ(dynamic_rows, 0u);
 }
 
 TEST(Replay, MissingSequenceIsAClearError) {
