@@ -21,13 +21,6 @@
 namespace dynamap::tools {
 namespace {
 
-Pose to_pose(const PoseD& p) {
-  Pose r;
-  r.translation = p.translation.cast<float>();
-  r.rotation = p.rotation.cast<float>().normalized();
-  return r;
-}
-
 int run(int argc, char** argv) {
   if (argc < 2) {
     std::cerr << "usage: dynamap-occ-diag SEQ [--stops 1,2,3] [--recover K] [--params FILE] "
@@ -57,19 +50,8 @@ int run(int argc, char** argv) {
     }
   }
   const Sequence seq = read_sequence(seq_dir);
-  PipelineConfig config;
-  if (!params.empty()) {
-    const std::string err = apply_params_file(params, config);
-    if (!err.empty()) throw ToolError(err);
-  }
-  CameraIntrinsics cam;
-  cam.fx = static_cast<float>(seq.camera.fx);
-  cam.fy = static_cast<float>(seq.camera.fy);
-  cam.cx = static_cast<float>(seq.camera.cx);
-  cam.cy = static_cast<float>(seq.camera.cy);
-  cam.width = seq.camera.width;
-  cam.height = seq.camera.height;
-  cam.depth_scale = static_cast<float>(1.0 / seq.camera.depth_factor);
+  const PipelineConfig config = config_for_sequence(seq, params);
+  const CameraIntrinsics& cam = config.camera;
   diag::CarveComparison cmp(config.map, stops, recover);
   for (const SequenceFrame& sf : seq.frames) {
     const Image16 depth = load_depth(seq, sf);

@@ -21,13 +21,6 @@
 namespace dynamap::tools {
 namespace {
 
-Pose to_pose(const PoseD& p) {
-  Pose r;
-  r.translation = p.translation.cast<float>();
-  r.rotation = p.rotation.cast<float>().normalized();
-  return r;
-}
-
 int run(int argc, char** argv) {
   if (argc < 2) {
     std::cerr << "usage: dynamap-track-diag SEQ [--params FILE] > diag.csv\n";
@@ -39,19 +32,7 @@ int run(int argc, char** argv) {
     if (std::string(argv[i]) == "--params") params = argv[i + 1];
   }
   const Sequence seq = read_sequence(seq_dir);
-  PipelineConfig config;
-  const CameraModel& cam = seq.camera;
-  config.camera.fx = static_cast<float>(cam.fx);
-  config.camera.fy = static_cast<float>(cam.fy);
-  config.camera.cx = static_cast<float>(cam.cx);
-  config.camera.cy = static_cast<float>(cam.cy);
-  config.camera.width = cam.width;
-  config.camera.height = cam.height;
-  config.camera.depth_scale = static_cast<float>(1.0 / cam.depth_factor);
-  if (!params.empty()) {
-    const std::string err = apply_params_file(params, config);
-    if (!err.empty()) throw ToolError(err);
-  }
+  const PipelineConfig config = config_for_sequence(seq, params);
   auto pipeline = std::make_unique<Pipeline>();
   ConfigError ce;
   if (!ok(pipeline->init(config, &ce))) throw ToolError(std::string("config: ") + ce.field);

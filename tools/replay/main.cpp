@@ -132,13 +132,6 @@ std::ofstream open_out(const std::string& path) {
   return f;
 }
 
-Pose to_pose(const PoseD& p) {
-  Pose r;
-  r.translation = p.translation.cast<float>();
-  r.rotation = p.rotation.cast<float>().normalized();
-  return r;
-}
-
 // Everything the pictures need, accumulated while replaying.
 struct PictureState {
   std::map<std::uint32_t, std::vector<Eigen::Vector2d>> dynamic_paths;  // by track id
@@ -227,24 +220,13 @@ int run(const Options& o) {
   if (seq.frames.empty()) throw ToolError(o.seq + ": no depth image has a pose; nothing to replay");
   for (const std::string& w : seq.warnings) std::cerr << "warning: " << w << "\n";
 
-  PipelineConfig config;
   const CameraModel& cam = seq.camera;
   if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) {
     throw ToolError(o.seq + "/camera.txt: image " + std::to_string(cam.width) + "x" +
                     std::to_string(cam.height) + " is larger than the library's maximum " +
                     std::to_string(kMaxImageWidth) + "x" + std::to_string(kMaxImageHeight));
   }
-  config.camera.fx = static_cast<float>(cam.fx);
-  config.camera.fy = static_cast<float>(cam.fy);
-  config.camera.cx = static_cast<float>(cam.cx);
-  config.camera.cy = static_cast<float>(cam.cy);
-  config.camera.width = cam.width;
-  config.camera.height = cam.height;
-  config.camera.depth_scale = static_cast<float>(1.0 / cam.depth_factor);
-  if (!o.params.empty()) {
-    const std::string err = apply_params_file(o.params, config);
-    if (!err.empty()) throw ToolError(err);
-  }
+  const PipelineConfig config = config_for_sequence(seq, o.params);
   auto pipeline = std::make_unique<Pipeline>();
   ConfigError ce;
   if (!ok(pipeline->init(config, &ce))) {

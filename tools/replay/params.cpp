@@ -7,6 +7,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "common/text_io.hpp"
+
 namespace dynamap::tools {
 namespace {
 
@@ -240,6 +242,35 @@ std::vector<std::string> describe_params(const PipelineConfig& config) {
   std::vector<std::string> out;
   for (const Param& p : params()) out.push_back(p.key + ": " + p.get(config));
   return out;
+}
+
+CameraIntrinsics intrinsics_of(const CameraModel& camera) {
+  CameraIntrinsics c;
+  c.fx = static_cast<float>(camera.fx);
+  c.fy = static_cast<float>(camera.fy);
+  c.cx = static_cast<float>(camera.cx);
+  c.cy = static_cast<float>(camera.cy);
+  c.width = camera.width;
+  c.height = camera.height;
+  c.depth_scale = static_cast<float>(1.0 / camera.depth_factor);
+  return c;
+}
+
+Pose to_pose(const PoseD& pose) {
+  Pose r;
+  r.translation = pose.translation.cast<float>();
+  r.rotation = pose.rotation.cast<float>().normalized();
+  return r;
+}
+
+PipelineConfig config_for_sequence(const Sequence& seq, const std::string& params_file) {
+  PipelineConfig config;
+  config.camera = intrinsics_of(seq.camera);
+  if (!params_file.empty()) {
+    const std::string err = apply_params_file(params_file, config);
+    if (!err.empty()) throw ToolError(err);
+  }
+  return config;
 }
 
 }  // namespace dynamap::tools

@@ -6,7 +6,9 @@
 #include <string>
 #include <vector>
 
+#include "common/sequence.hpp"
 #include "dynamap/pipeline_config.hpp"
+#include "dynamap/types.hpp"
 
 namespace dynamap::tools {
 
@@ -15,5 +17,15 @@ std::string apply_params_file(const std::string& path, PipelineConfig& config);
 
 /// Every key the parameter file accepts, with its current value in `config` (for --help-params).
 std::vector<std::string> describe_params(const PipelineConfig& config);
+
+/// The library's intrinsics for a sequence's camera.txt model.
+CameraIntrinsics intrinsics_of(const CameraModel& camera);
+
+/// The library's (float) pose for a sequence pose.
+Pose to_pose(const PoseD& pose);
+
+/// Default configuration with the sequence's camera, then the parameter file on top when
+/// `params_file` is not empty; a bad file throws ToolError with apply_params_file's message.
+PipelineConfig config_for_sequence(const Sequence& seq, const std::string& params_file);
 
 }  // namespace dynamap::tools
