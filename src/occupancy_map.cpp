@@ -5,6 +5,8 @@
 #include <cstring>
 #include <limits>
 
+#include "segment_walk.hpp"
+
 namespace dynamap {
 namespace {
 
@@ -231,27 +233,13 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
   // float additions are made in the same order, so the result is exactly the voxel walk's.
   IndexVec idx{}, end{};
   if (!initialized_ || !index_of(a, idx) || !index_of(b, end)) return false;
-  const Eigen::Vector3f d = b - a;
-  std::int32_t step[3];
-  std::int32_t remaining[3];
-  float t_max[3];
-  float t_delta[3];
+  detail::SegmentWalk w = detail::start_segment_walk(a, b, idx, end, resolution_);
+  std::int32_t* const step = w.step;
+  std::int32_t* const remaining = w.remaining;
+  float* const t_max = w.t_max;
+  float* const t_delta = w.t_delta;
   constexpr float kInf = std::numeric_limits<float>::infinity();
   constexpr std::int32_t kMask = kBlockEdge - 1;
-  for (std::size_t ax = 0; ax < 3; ++ax) {
-    const int e = static_cast<int>(ax);
-    remaining[ax] = std::abs(end[ax] - idx[ax]);
-    step[ax] = end[ax] > idx[ax] ? 1 : -1;
-    if (remaining[ax] == 0 || d[e] == 0.f) {
-      remaining[ax] = 0;
-      t_max[ax] = kInf;
-      t_delta[ax] = kInf;
-      continue;
-    }
-    const float boundary = static_cast<float>(idx[ax] + (step[ax] > 0 ? 1 : 0)) * resolution_;
-    t_max[ax] = (boundary - a[e]) / d[e];
-    t_delta[ax] = resolution_ / std::fabs(d[e]);
-  }
   std::size_t n = 0;  // voxels visited so far (cap kMaxSegmentVisits, as for the voxel walk)
   while (n < kMaxSegmentVisits) {
     const Block* block =

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "dynamap/occupancy_map.hpp"
+#include "segment_walk.hpp"
 
 namespace dynamap {
 
@@ -21,26 +22,12 @@ bool OccupancyMap::first_non_free_on_segment(const Eigen::Vector3f& a, const Eig
     if (state != nullptr) *state = Occupancy::kUnknown;
     return true;
   }
-  const Eigen::Vector3f d = b - a;
-  std::int32_t step[3];
-  std::int32_t remaining[3];
-  float t_max[3];
-  float t_delta[3];
+  detail::SegmentWalk w = detail::start_segment_walk(a, b, idx, end, resolution_);
+  std::int32_t* const step = w.step;
+  std::int32_t* const remaining = w.remaining;
+  float* const t_max = w.t_max;
+  float* const t_delta = w.t_delta;
   constexpr float kInf = std::numeric_limits<float>::infinity();
-  for (std::size_t ax = 0; ax < 3; ++ax) {
-    const int e = static_cast<int>(ax);
-    remaining[ax] = std::abs(end[ax] - idx[ax]);
-    step[ax] = end[ax] > idx[ax] ? 1 : -1;
-    if (remaining[ax] == 0 || d[e] == 0.f) {
-      remaining[ax] = 0;
-      t_max[ax] = kInf;
-      t_delta[ax] = kInf;
-      continue;
-    }
-    const float boundary = static_cast<float>(idx[ax] + (step[ax] > 0 ? 1 : 0)) * resolution_;
-    t_max[ax] = (boundary - a[e]) / d[e];
-    t_delta[ax] = resolution_ / std::fabs(d[e]);
-  }
   // One table lookup per block entered, not per voxel.
   std::int32_t bi = idx[0] >> kBlockBits, bj = idx[1] >> kBlockBits, bk = idx[2] >> kBlockBits;
   const Block* block = find_block(bi, bj, bk);
