@@ -60,6 +60,10 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
     return Status::kInvalidArgument;
   }
   if (!ok(validate(c.depth_check))) return Status::kInvalidArgument;
+  if (c.belief_update != BeliefUpdate::kCompound && c.belief_update != BeliefUpdate::kChoiceOnly &&
+      c.belief_update != BeliefUpdate::kLastChoice) {
+    return Status::kInvalidArgument;
+  }
 
   config_ = c;
   library_ = lib;
@@ -171,26 +175,33 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
     for (std::size_t i = 0; i < l; ++i) env[i] = 1.0 / static_cast<double>(l);
   }
 
-  // Belief update. A new track starts from P_init (.) P_env.
+  // Belief update. prior = P(t) * P_trans, or P_init for a new track; post = prior (.) P_env,
+  // normalised, is what the choice is made on. kCompound keeps post for the next frame,
+  // kChoiceOnly keeps prior, kLastChoice keeps the choice (below).
+  const BeliefUpdate mode = config_.belief_update;
   bool inserted = false;
   Belief* belief = beliefs_.find_or_insert(obstacle.track_id, inserted);
-  Belief post{};
-  if (inserted || belief == nullptr) {
-    for (std::size_t j = 0; j < l; ++j) post[j] = initial_[j] * env[j];
+  const bool fresh = inserted || belief == nullptr;
+  Belief prior{};
+  if (fresh) {
+    prior = initial_;
   } else {
     for (std::size_t j = 0; j < l; ++j) {
       double pred = 0.0;
       for (std::size_t i = 0; i < l; ++i) pred += (*belief)[i] * trans_[i][j];
-      post[j] = pred * env[j];
+      prior[j] = pred;
     }
   }
+  Belief post{};
+  for (std::size_t j = 0; j < l; ++j) post[j] = prior[j] * env[j];
   if (!normalise(l, &post)) {
     // The old belief and the map disagree beyond double precision: restart from the prior.
     ++underflow_restarts_;
+    prior = initial_;
     for (std::size_t j = 0; j < l; ++j) post[j] = initial_[j] * env[j];
     if (!normalise(l, &post)) post = env;
   }
-  if (belief != nullptr) *belief = post;  // nullptr only if the table were full (it cannot be)
+  if (mode == BeliefUpdate::kChoiceOnly && !normalise(l, &prior)) prior = initial_;
 
   // Most likely path (among the free ones when choose_free and any is free). Exact ties go to
   // the one nearer the straight path, then (mirror pairs) to the one seen free for longer.
@@ -213,6 +224,16 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
     if (better || tie_nearer || tie_seen) best = i;
   }
   if (best == l) best = 0;  // l >= 1, so only reached if no path was considered (cannot happen)
+  if (belief != nullptr) {  // nullptr only if the table were full (it cannot be)
+    if (mode == BeliefUpdate::kCompound) {
+      *belief = post;
+    } else if (mode == BeliefUpdate::kChoiceOnly) {
+      *belief = prior;
+    } else {
+      belief->fill(0.0);
+      (*belief)[best] = 1.0;
+    }
+  }
   for (std::size_t i = 0; i < kMaxPaths; ++i) {
     out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;
     if (i >= l) {
