@@ -97,8 +97,10 @@ ConfigError validate(const PipelineConfig& c) noexcept {
             "predictor.unknown_weight", "must be in [0, 1]");
   k.require(c.predictor.belief_update == BeliefUpdate::kCompound ||
                 c.predictor.belief_update == BeliefUpdate::kChoiceOnly ||
-                c.predictor.belief_update == BeliefUpdate::kLastChoice,
-            "predictor.belief_update", "must be compound, choice_only or last_choice");
+                c.predictor.belief_update == BeliefUpdate::kLastChoice ||
+                c.predictor.belief_update == BeliefUpdate::kShiftedChoice,
+            "predictor.belief_update",
+            "must be compound, choice_only, last_choice or shifted_choice");
   {
     const DepthCheckConfig& d = c.predictor.depth_check;
     k.require(std::isfinite(d.noise_margin) && d.noise_margin >= 0.f,

@@ -798,15 +798,46 @@ TEST(MarkovPredictor, CompoundingBeliefDriftsOffTheStraightPathAlongAWall) {
 }
 
 TEST(MarkovPredictor, NonCompoundingBeliefKeepsTheStraightPathAlongAWall) {
-  for (const BeliefUpdate mode : {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice}) {
+  for (const BeliefUpdate mode :
+       {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
     MarkovPredictor::Belief b{};
     const std::vector<std::size_t> chosen = walk_along_right_wall(mode, 60, &b);
     for (std::size_t f = 0; f < chosen.size(); ++f) {
       EXPECT_EQ(chosen[f], 2u) << "mode " << static_cast<int>(mode) << ", frame " << f;
     }
-    if (mode == BeliefUpdate::kLastChoice) {
+    if (mode != BeliefUpdate::kChoiceOnly) {
       for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(b[i], i == 2 ? 1.0 : 0.0);
     }
+  }
+}
+
+TEST(MarkovPredictor, ShiftedChoiceReturnsToStraightOnceTheTurnIsDone) {
+  // Frames 0-9: walls ahead and right, an opening on the left, so a left turn is chosen. Then
+  // the walker is in open space and has turned by exactly that path's heading change: with
+  // kShiftedChoice nothing of the turn is left and the straight path is chosen at once; with
+  // kLastChoice the choice stays on the turn (in the new velocity frame, a second turn).
+  for (const BeliefUpdate mode : {BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
+    BoxWorld w;
+    build_wall_with_left_opening(w);
+    MarkovPredictorConfig c = markov_config(5);
+    c.belief_update = mode;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    PathPrediction out;
+    for (int f = 0; f < 10; ++f) {
+      const ObstacleState o = walker(3, -0.6f, 0.0f, 1.0f, 0.0f);
+      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    }
+    const std::size_t turn = out.chosen;
+    ASSERT_LT(turn, 2u);  // a left turn
+    // Path i of l = 5 turns by max_heading_change * (1 - i / 2).
+    const float dtheta =
+        mp.library().config().max_heading_change * (1.0f - 0.5f * static_cast<float>(turn));
+    BoxWorld open;
+    const ObstacleState o = walker(3, 0.0f, 10.0f, std::cos(dtheta), std::sin(dtheta));
+    ASSERT_EQ(mp.predict(&o, 1, open.query(), &out), Status::kOk);
+    EXPECT_EQ(out.free_mask, 0x1Fu);
+    EXPECT_EQ(out.chosen, mode == BeliefUpdate::kShiftedChoice ? 2u : turn);
   }
 }
 
@@ -855,12 +886,13 @@ TEST(MarkovPredictor, BeliefUpdateIsValidatedAndAllocationFree) {
   MarkovPredictorConfig c = markov_config(5);
   MarkovPredictor mp;
   ASSERT_EQ(mp.init(c), Status::kOk);
-  c.belief_update = static_cast<BeliefUpdate>(3);
+  c.belief_update = static_cast<BeliefUpdate>(9);
   EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
   EXPECT_EQ(mp.config().belief_update, BeliefUpdate::kCompound);  // nothing changed
   BoxWorld w;
   build_wall_with_left_opening(w);
-  for (const BeliefUpdate mode : {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice}) {
+  for (const BeliefUpdate mode :
+       {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
     c.belief_update = mode;
     ASSERT_EQ(mp.init(c), Status::kOk);
     std::array<ObstacleState, 3> in{};

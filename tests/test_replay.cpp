@@ -164,8 +164,8 @@ TEST(Replay, BadMotionModelIsRefused) {
   EXPECT_NE(r.output.find("tracker"), std::string::npos) << r.output;
 }
 
-// The belief update is spelled compound, choice_only or last_choice; the error names the key
-// and the accepted spellings.
+// The belief update is spelled compound, choice_only, last_choice or shifted_choice; the error
+// names the key and the accepted spellings.
 TEST(Replay, BadBeliefUpdateIsRefused) {
   const std::string params = ::testing::TempDir() + "bad_belief.yaml";
   std::ofstream(params) << "predictor:\n  belief_update: choice-only\n";
@@ -175,7 +175,9 @@ TEST(Replay, BadBeliefUpdateIsRefused) {
   EXPECT_NE(r.output.find("bad value for 'predictor.belief_update': 'choice-only'"),
             std::string::npos)
       << r.output;
-  EXPECT_NE(r.output.find("compound, choice_only or last_choice"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("compound, choice_only, last_choice or shifted_choice"),
+            std::string::npos)
+      << r.output;
 }
 
 TEST(Replay, NegativeEarlyStopCountIsRefused) {

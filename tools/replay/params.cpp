@@ -69,7 +69,7 @@ Param motion_model_param() {
 }
 
 // predictor.belief_update is an enum: "compound" (DESIGN.md §4.6), "choice_only" or
-// "last_choice" (markov_predictor.hpp, BeliefUpdate).
+// "last_choice" or "shifted_choice" (markov_predictor.hpp, BeliefUpdate).
 Param belief_update_param() {
   Param p;
   p.key = "predictor.belief_update";
@@ -82,6 +82,8 @@ Param belief_update_param() {
       c.predictor.belief_update = BeliefUpdate::kChoiceOnly;
     } else if (v == "last_choice") {
       c.predictor.belief_update = BeliefUpdate::kLastChoice;
+    } else if (v == "shifted_choice") {
+      c.predictor.belief_update = BeliefUpdate::kShiftedChoice;
     } else {
       return false;
     }
@@ -95,10 +97,12 @@ Param belief_update_param() {
         return std::string("choice_only");
       case BeliefUpdate::kLastChoice:
         return std::string("last_choice");
+      case BeliefUpdate::kShiftedChoice:
+        return std::string("shifted_choice");
     }
     return std::string("invalid");
   };
-  p.allowed = "compound, choice_only or last_choice";
+  p.allowed = "compound, choice_only, last_choice or shifted_choice";
   return p;
 }
 
