@@ -112,6 +112,12 @@ TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
   EXPECT_STREQ(validate(c).field, "predictor.unknown_weight");
 
   c = PipelineConfig{};
+  c.predictor.belief_update = static_cast<BeliefUpdate>(7);
+  EXPECT_STREQ(validate(c).field, "predictor.belief_update");
+  c.predictor.belief_update = BeliefUpdate::kChoiceOnly;
+  EXPECT_TRUE(validate(c).ok());
+
+  c = PipelineConfig{};
   c.map.free_ray_early_stop = -1;
   EXPECT_STREQ(validate(c).field, "map.free_ray_early_stop");
 }

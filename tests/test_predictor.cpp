@@ -761,6 +761,156 @@ TEST(MarkovPredictor, BeliefReturnsToStraightOnceTheMapNoLongerChooses) {
   EXPECT_GT(frames_to_straight[0], 2 * frames_to_straight[1]);
 }
 
+// A walker walks straight along +x, 0.8 m left of a long wall on its right (y = -0.8): the
+// straight path and both left turns are free for the whole horizon, the two right turns meet
+// the wall. Returns the path chosen in each of `frames` frames.
+std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames,
+                                               MarkovPredictor::Belief* last_belief = nullptr) {
+  BoxWorld w;
+  w.add_box(wall(-5.0f, -0.9f, 60.0f, -0.8f));
+  MarkovPredictorConfig c = markov_config(5);
+  c.belief_update = mode;
+  MarkovPredictor mp;
+  EXPECT_EQ(mp.init(c), Status::kOk);
+  std::vector<std::size_t> chosen;
+  PathPrediction out;
+  for (int f = 0; f < frames; ++f) {
+    const ObstacleState o = walker(4, 0.05f * static_cast<float>(f), 0.0f, 1.5f, 0.0f);
+    EXPECT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    EXPECT_EQ(out.free_mask, 0x07u) << "frame " << f;  // paths 0, 1, 2 free; 3, 4 blocked
+    expect_valid_distribution(out);
+    chosen.push_back(out.chosen);
+  }
+  if (last_belief != nullptr) {
+    EXPECT_TRUE(mp.belief(4, last_belief));
+  }
+  return chosen;
+}
+
+TEST(MarkovPredictor, CompoundingBeliefDriftsOffTheStraightPathAlongAWall) {
+  // DESIGN.md §4.6 as written: every frame P_trans leaks belief from the straight path into the
+  // blocked right turns and P_env takes it away again, so the same wall counts again every frame
+  // and the belief settles in the middle of the free set: a left turn, though nothing but the
+  // wall on the right has changed since the first frame (the "lane-centre drift").
+  const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kCompound, 60);
+  EXPECT_EQ(chosen.front(), 2u);
+  EXPECT_LT(chosen.back(), 2u);
+}
+
+TEST(MarkovPredictor, NonCompoundingBeliefKeepsTheStraightPathAlongAWall) {
+  for (const BeliefUpdate mode :
+       {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
+    MarkovPredictor::Belief b{};
+    const std::vector<std::size_t> chosen = walk_along_right_wall(mode, 60, &b);
+    for (std::size_t f = 0; f < chosen.size(); ++f) {
+      EXPECT_EQ(chosen[f], 2u) << "mode " << static_cast<int>(mode) << ", frame " << f;
+    }
+    if (mode != BeliefUpdate::kChoiceOnly) {
+      for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(b[i], i == 2 ? 1.0 : 0.0);
+    }
+  }
+}
+
+TEST(MarkovPredictor, ShiftedChoiceReturnsToStraightOnceTheTurnIsDone) {
+  // Frames 0-9: walls ahead and right, an opening on the left, so a left turn is chosen. Then
+  // the walker is in open space and has turned by exactly that path's heading change: with
+  // kShiftedChoice nothing of the turn is left and the straight path is chosen at once; with
+  // kLastChoice the choice stays on the turn (in the new velocity frame, a second turn).
+  for (const BeliefUpdate mode : {BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
+    BoxWorld w;
+    build_wall_with_left_opening(w);
+    MarkovPredictorConfig c = markov_config(5);
+    c.belief_update = mode;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    PathPrediction out;
+    for (int f = 0; f < 10; ++f) {
+      const ObstacleState o = walker(3, -0.6f, 0.0f, 1.0f, 0.0f);
+      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    }
+    const std::size_t turn = out.chosen;
+    ASSERT_LT(turn, 2u);  // a left turn
+    // Path i of l = 5 turns by max_heading_change * (1 - i / 2).
+    const float dtheta =
+        mp.library().config().max_heading_change * (1.0f - 0.5f * static_cast<float>(turn));
+    BoxWorld open;
+    const ObstacleState o = walker(3, 0.0f, 10.0f, std::cos(dtheta), std::sin(dtheta));
+    ASSERT_EQ(mp.predict(&o, 1, open.query(), &out), Status::kOk);
+    EXPECT_EQ(out.free_mask, 0x1Fu);
+    EXPECT_EQ(out.chosen, mode == BeliefUpdate::kShiftedChoice ? 2u : turn);
+  }
+}
+
+TEST(MarkovPredictor, ChoiceOnlyBeliefIsTheChainAloneAndTheOutputItsProductWithTheMap) {
+  // kChoiceOnly: the kept belief is P_init * P_trans^n whatever the map says; the output
+  // probabilities are that belief (.) P_env, normalised (the compound update's formula for one
+  // frame), and the choice is their most likely free path.
+  BoxWorld w;
+  build_wall_with_left_opening(w);
+  MarkovPredictorConfig c = markov_config(5);
+  c.belief_update = BeliefUpdate::kChoiceOnly;
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(c), Status::kOk);
+  const double beta = mp.config().beta;
+  MarkovPredictor::Belief chain{};
+  for (std::size_t i = 0; i < 5; ++i) chain[i] = mp.initial(i);
+  PathPrediction out;
+  ObstacleState o = walker(9, -0.6f, 0.0f, 1.0f, 0.0f);
+  for (int f = 0; f < 8; ++f) {
+    if (f > 0) {
+      MarkovPredictor::Belief next{};
+      for (std::size_t j = 0; j < 5; ++j) {
+        for (std::size_t i = 0; i < 5; ++i) next[j] += chain[i] * mp.transition(i, j);
+      }
+      chain = next;
+    }
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    MarkovPredictor::Belief b{};
+    ASSERT_TRUE(mp.belief(9, &b));
+    double sum = 0.0;
+    MarkovPredictor::Belief want{};
+    for (std::size_t i = 0; i < 5; ++i) {
+      EXPECT_NEAR(b[i], chain[i], 1e-9) << "frame " << f;
+      sum += want[i] = chain[i] * std::exp(beta * out.free_distance[i]);
+    }
+    for (std::size_t i = 0; i < 5; ++i) {
+      EXPECT_NEAR(out.probability[i], want[i] / sum, 1e-6) << "frame " << f;
+    }
+    EXPECT_NE(out.free_mask, 0x1Fu);  // the walls block some paths: P_env is not flat
+    expect_valid_distribution(out);
+    o.position.x() += 0.02f;
+  }
+}
+
+TEST(MarkovPredictor, BeliefUpdateIsValidatedAndAllocationFree) {
+  MarkovPredictorConfig c = markov_config(5);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(c), Status::kOk);
+  c.belief_update = static_cast<BeliefUpdate>(9);
+  EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
+  EXPECT_EQ(mp.config().belief_update, BeliefUpdate::kCompound);  // nothing changed
+  BoxWorld w;
+  build_wall_with_left_opening(w);
+  for (const BeliefUpdate mode :
+       {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
+    c.belief_update = mode;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    std::array<ObstacleState, 3> in{};
+    std::array<PathPrediction, 3> out{};
+    for (std::size_t k = 0; k < in.size(); ++k) {
+      in[k] = walker(static_cast<std::uint32_t>(20 + k), -0.6f + 0.1f * static_cast<float>(k),
+                     0.1f * static_cast<float>(k), 1.0f, 0.1f);
+    }
+    const OccupancyQuery q = w.query();
+    test::AllocationGuard guard;
+    for (int f = 0; f < 5; ++f) {
+      EXPECT_EQ(mp.predict(in.data(), in.size(), q, out.data()), Status::kOk);
+    }
+    EXPECT_EQ(guard.allocations(), 0u);
+    EXPECT_EQ(guard.deallocations(), 0u);
+  }
+}
+
 TEST(MarkovPredictor, OwnBodyInTheMapIsNotAnObstacle) {
   // The map still holds the walker's own body (this frame's hits around its centre, plus a
   // voxel layer just ahead of a lagging box): those must not block every path. A wall 1.2 m

@@ -193,6 +193,22 @@ TEST(Replay, BadMotionModelIsRefused) {
   EXPECT_NE(r.output.find("tracker"), std::string::npos) << r.output;
 }
 
+// The belief update is spelled compound, choice_only, last_choice or shifted_choice; the error
+// names the key and the accepted spellings.
+TEST(Replay, BadBeliefUpdateIsRefused) {
+  const std::string params = ::testing::TempDir() + "bad_belief.yaml";
+  std::ofstream(params) << "predictor:\n  belief_update: choice-only\n";
+  const RunResult r =
+      run_replay(corridor_sequence() + " --out " + fresh_dir("bu_out") + " --params " + params);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("bad value for 'predictor.belief_update': 'choice-only'"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("compound, choice_only, last_choice or shifted_choice"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST(Replay, NegativeEarlyStopCountIsRefused) {
   const std::string params = ::testing::TempDir() + "bad_early_stop.yaml";
   std::ofstream(params) << "map:\n  free_ray_early_stop: -3\n";

@@ -1,6 +1,7 @@
 // MarkovPredictor: environment-aware trajectory prediction (DESIGN.md §4.6). Per track, a belief
 // P over the l library paths evolves as P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)), where
-// P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map.
+// P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map
+// (or, with BeliefUpdate::kChoiceOnly and the others, P_env only chooses and is not carried on).
 // All state is inline (fixed capacity); predict() never allocates and does bounded work.
 #pragma once
 
@@ -15,6 +16,26 @@
 #include "dynamap/status.hpp"
 
 namespace dynamap {
+
+/// How the environment term P_env enters a track's belief (docs/predictor.md, "Non-compounding
+/// belief"). In every mode the frame's choice is the most likely path of the belief times this
+/// frame's P_env (with choose_free), and PathPrediction::probability is that product, normalised.
+enum class BeliefUpdate : std::uint8_t {
+  /// P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)), DESIGN.md §4.6: the same wall seen
+  /// again is counted again every frame, so P_env compounds (the "lane-centre drift").
+  kCompound = 0,
+  /// P(t+1) = P(t) * P_trans (a new track starts from P_init): the belief is the chain's prior
+  /// alone and P_env is applied only to choose this frame's path, never carried to the next.
+  kChoiceOnly,
+  /// P(t+1) = e_c(t) * P_trans, the P_trans row of the path chosen at t (a new track starts
+  /// from P_init): the chain remembers the last choice, not the evidence behind it.
+  kLastChoice,
+  /// As kLastChoice, but the chosen path is first moved by the heading change the track made
+  /// since the last frame: a walker on a 90 degree left turn who has turned 30 degrees has 60 to
+  /// go, so the P_trans row is taken at the path turning theta_c - dtheta (split linearly between
+  /// the two nearest paths, clamped to the library). A completed turn returns to straight.
+  kShiftedChoice,
+};
 
 /// Path family, footprint check and the Markov chain's parameters.
 struct MarkovPredictorConfig {
@@ -55,6 +76,8 @@ struct MarkovPredictorConfig {
   /// (free_mask, any_free, choose_free, failed) only when neither meets anything. Used only
   /// when predict() is given the frame; enabled = false is the map-only predictor.
   DepthCheckConfig depth_check{};
+  /// How P_env enters the belief; kCompound is DESIGN.md §4.6 as written.
+  BeliefUpdate belief_update = BeliefUpdate::kCompound;
 };
 
 /// Slots of the per-track belief table (power of two, max load 7/8 >= kMaxTracks).
@@ -104,9 +127,12 @@ class MarkovPredictor {
   double transition(std::size_t from, std::size_t to) const noexcept { return trans_[from][to]; }
   /// Number of tracks with a belief.
   std::size_t tracked() const noexcept { return beliefs_.size(); }
-  /// Copies the belief of `track_id`; false when the track is unknown.
+  /// Copies the belief of `track_id` as kept for the next frame (kCompound: the posterior;
+  /// kChoiceOnly: P(t) * P_trans without P_env; kLastChoice, kShiftedChoice: 1 on the chosen path,
+  /// 0 elsewhere); false when the track is unknown.
   bool belief(std::uint32_t track_id, Belief* out) const noexcept;
   /// Frames in which (P * P_trans) (.) P_env underflowed and the belief was restarted.
+  /// (kChoiceOnly / kLastChoice / kShiftedChoice: the belief is then P_init again.)
   std::uint64_t underflow_restarts() const noexcept { return underflow_restarts_; }
 
  private:
@@ -118,7 +144,11 @@ class MarkovPredictor {
   bool initialised_ = false;
   Belief initial_{};
   std::array<Belief, kMaxPaths> trans_{};
-  FixedHashMap<std::uint32_t, Belief, kPredictorTrackSlots> beliefs_{};
+  struct TrackBelief {
+    Belief p{};
+    float heading = 0.0f;  // velocity direction (rad) at the last frame, for kShiftedChoice
+  };
+  FixedHashMap<std::uint32_t, TrackBelief, kPredictorTrackSlots> beliefs_{};
   std::array<PathSamples, kMaxPaths> paths_{};  // scratch: one obstacle's sampled paths
   std::uint64_t underflow_restarts_ = 0;
 };

@@ -17,6 +17,7 @@ struct Param {
   std::string key;
   std::function<bool(const YAML::Node&, PipelineConfig&)> set;
   std::function<std::string(const PipelineConfig&)> get;
+  std::string allowed;  // spelled-out values of an enum key, for the error message
 };
 
 template <typename Access>
@@ -66,6 +67,44 @@ Param motion_model_param() {
   p.get = [](const PipelineConfig& c) {
     return std::string(c.tracker.kalman.model == MotionModel::kTurnImm ? "imm" : "cv");
   };
+  return p;
+}
+
+// predictor.belief_update is an enum: "compound" (DESIGN.md §4.6), "choice_only" or
+// "last_choice" or "shifted_choice" (markov_predictor.hpp, BeliefUpdate).
+Param belief_update_param() {
+  Param p;
+  p.key = "predictor.belief_update";
+  p.set = [](const YAML::Node& n, PipelineConfig& c) {
+    std::string v;
+    if (!YAML::convert<std::string>::decode(n, v)) return false;
+    if (v == "compound") {
+      c.predictor.belief_update = BeliefUpdate::kCompound;
+    } else if (v == "choice_only") {
+      c.predictor.belief_update = BeliefUpdate::kChoiceOnly;
+    } else if (v == "last_choice") {
+      c.predictor.belief_update = BeliefUpdate::kLastChoice;
+    } else if (v == "shifted_choice") {
+      c.predictor.belief_update = BeliefUpdate::kShiftedChoice;
+    } else {
+      return false;
+    }
+    return true;
+  };
+  p.get = [](const PipelineConfig& c) {
+    switch (c.predictor.belief_update) {
+      case BeliefUpdate::kCompound:
+        return std::string("compound");
+      case BeliefUpdate::kChoiceOnly:
+        return std::string("choice_only");
+      case BeliefUpdate::kLastChoice:
+        return std::string("last_choice");
+      case BeliefUpdate::kShiftedChoice:
+        return std::string("shifted_choice");
+    }
+    return std::string("invalid");
+  };
+  p.allowed = "compound, choice_only, last_choice or shifted_choice";
   return p;
 }
 
@@ -163,6 +202,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(predictor.straight_return),
       DYNAMAP_PARAM(predictor.unknown_weight),
       DYNAMAP_PARAM(predictor.choose_free),
+      belief_update_param(),
       DYNAMAP_PARAM(predictor.depth_check.enabled),
       DYNAMAP_PARAM(predictor.depth_check.noise_margin),
       DYNAMAP_PARAM(predictor.depth_check.noise_quadratic),
@@ -210,7 +250,8 @@ std::string apply_node(const std::string& path, const YAML::Node& node, const st
     }
     if (!value.IsScalar() || !param->set(value, config)) {
       return where(path, value) + ": bad value for '" + key + "': '" +
-             (value.IsScalar() ? value.Scalar() : std::string("<not a scalar>")) + "'";
+             (value.IsScalar() ? value.Scalar() : std::string("<not a scalar>")) + "'" +
+             (param->allowed.empty() ? std::string() : " (must be " + param->allowed + ")");
     }
   }
   return "";
