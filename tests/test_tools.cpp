@@ -278,6 +278,8 @@ TEST(ResultsCsv, PredictionRowsSayMinusOneWhenNoPathIsFree) {
   p.chosen = 2;
   p.probability[2] = 0.5f;
   p.num_samples = 2;
+  p.time[0] = 0.f;  // PathPrediction's arrays are not initialised: set every written sample
+  p.position[0] = Eigen::Vector3f(0.5f, 1.f, 0.9f);
   p.time[1] = 0.1f;
   p.position[1] = Eigen::Vector3f(1.f, 2.f, 0.9f);
   p.any_free = true;
