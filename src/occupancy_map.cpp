@@ -514,7 +514,10 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   Block* block = nullptr;
   // Loop constants in locals: the map writes below could otherwise alias the members, and the
   // compiler would reload and re-broadcast them for every packet.
-  const std::uint32_t hit_raw_end = hit_raw_end_, near_raw_end = near_raw_end_;
+  const Eigen::Array4i hit_raw_end_i =
+      Eigen::Array4i::Constant(static_cast<std::int32_t>(hit_raw_end_));
+  const Eigen::Array4i near_raw_end_i =
+      Eigen::Array4i::Constant(static_cast<std::int32_t>(near_raw_end_));
   const float scale = depth_scale_, inv_res = inv_resolution_;
   const Eigen::Array4f half_x = Eigen::Array4f::Constant(half_extent4_[0]);
   const Eigen::Array4f half_y = Eigen::Array4f::Constant(half_extent4_[1]);
@@ -554,8 +557,8 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
           raw[static_cast<std::size_t>(l)] = px[std::min(l, lanes - 1) * stride];
         }
       }
-      const Eigen::Array4f raw_f{static_cast<float>(raw[0]), static_cast<float>(raw[1]),
-                                 static_cast<float>(raw[2]), static_cast<float>(raw[3])};
+      const Eigen::Array4i raw_i{raw[0], raw[1], raw[2], raw[3]};
+      const Eigen::Array4f raw_f = raw_i.cast<float>();  // exact: raw < 2^16
       // Free rays (no return, or beyond max_depth) are cast to max_depth. Select-free form:
       // (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
       const Eigen::Array4f z_ray =
@@ -568,12 +571,21 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
       const Eigen::Array4f outside =
           (off_x.abs() - half_x).max(off_y.abs() - half_y).max(off_z.abs() - half_z);
       const bool any_outside = outside.maxCoeff() > 0.f;
-      Eigen::Array4f clip_scale = Eigen::Array4f::Ones();
+      // Lane classes as 0/1 integers, computed in the lanes (arithmetic shifts give -1 where
+      // the difference is negative): raw in [1, near_raw_end) is closer than min_depth and
+      // skipped; raw in [near_raw_end, hit_raw_end) is a hit unless clipped; the rest (0, or
+      // beyond max_depth) are free rays. near_raw_end >= 1 and near_raw_end <= hit_raw_end, so
+      // each difference below is 0 or 1.
+      const Eigen::Array4i below_zero = (raw_i - 1).shiftRight<31>();
+      const Eigen::Array4i below_near = (raw_i - near_raw_end_i).shiftRight<31>();
+      const Eigen::Array4i below_hit = (raw_i - hit_raw_end_i).shiftRight<31>();
+      const Eigen::Array4i too_near = below_zero - below_near;  // 1: skip the pixel
+      Eigen::Array4i hit_lane = below_near - below_hit;         // 1: measured and not near
       if (any_outside) {
         // end_point()'s clip: min(1, h/|o|) is 1 where |o| <= h (h/|o| >= 1, or inf), so the
         // minimum over axes is its scale; lanes inside keep the factor 1 exactly. The factor
         // is shrink where scale < 1 and shrink + (1 - c) = c + (1 - c) = 1 (exact) where not.
-        clip_scale =
+        const Eigen::Array4f clip_scale =
             (half_x / off_x.abs()).min(half_y / off_y.abs()).min(half_z / off_z.abs()).min(1.f);
         constexpr float kInside = 1.f - 1e-4f;
         const Eigen::Array4f shrink = clip_scale * kInside;
@@ -583,6 +595,9 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
         off_x *= factor;
         off_y *= factor;
         off_z *= factor;
+        // A clipped ray loses its hit: hit and unclipped are both 0/1, so (hit + unclipped) >> 1
+        // is their conjunction.
+        hit_lane = (hit_lane + unclipped.cast<std::int32_t>()).shiftRight<1>();
       }
       const Eigen::Array4i ix = floor_lanes((origin_x + off_x) * inv_res) - base_x;
       const Eigen::Array4i iy = floor_lanes((origin_y + off_y) * inv_res) - base_y;
@@ -597,10 +612,8 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
       const Eigen::Array4i key =
           blk_x + (blk_y + blk_z.shiftLeft<kKeyBlockBits>()).shiftLeft<kKeyBlockBits>();
       for (int l = 0; l < lanes; ++l) {
-        const std::uint32_t r = raw[static_cast<std::size_t>(l)];
-        const bool measured = r != 0 && r < hit_raw_end;
-        if (measured && r < near_raw_end) continue;           // closer than min_depth
-        const bool hit = measured && !(clip_scale[l] < 1.f);  // a clipped ray loses its hit
+        if (too_near[l] != 0) continue;  // closer than min_depth
+        const bool hit = hit_lane[l] != 0;
         const std::int32_t lane_key = key[l];
         ++pixels;
         if (lane_key != current_key) {
