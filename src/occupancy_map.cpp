@@ -430,18 +430,23 @@ OccupancyMap::Block* OccupancyMap::acquire_block(std::int32_t bi, std::int32_t b
   return b;
 }
 
-inline OccupancyMap::Block* OccupancyMap::local_block(std::int32_t bi, std::int32_t bj,
-                                                      std::int32_t bk) noexcept {
-  const std::int32_t gi = bi - grid_origin_[0], gj = bj - grid_origin_[1],
-                     gk = bk - grid_origin_[2];
-  if (!grid_enabled_ ||
-      static_cast<std::uint32_t>(gi) >= static_cast<std::uint32_t>(grid_dim_[0]) ||
-      static_cast<std::uint32_t>(gj) >= static_cast<std::uint32_t>(grid_dim_[1]) ||
-      static_cast<std::uint32_t>(gk) >= static_cast<std::uint32_t>(grid_dim_[2])) {
-    return acquire_block(bi, bj, bk);
+inline OccupancyMap::LocalGrid OccupancyMap::local_grid() noexcept {
+  LocalGrid g{grid_origin_, {}, local_grid_.data()};
+  if (grid_enabled_) {
+    for (std::size_t a = 0; a < 3; ++a) g.dim[a] = static_cast<std::uint32_t>(grid_dim_[a]);
   }
-  std::uint16_t& cell =
-      local_grid_[static_cast<std::size_t>(gi + grid_dim_[0] * (gj + grid_dim_[1] * gk))];
+  return g;
+}
+
+inline OccupancyMap::Block* OccupancyMap::local_block(const LocalGrid& g, std::int32_t bi,
+                                                      std::int32_t bj, std::int32_t bk) noexcept {
+  // Unsigned compares reject both sides; a disabled grid has dimensions 0, so every block goes
+  // to the table.
+  const auto gi = static_cast<std::uint32_t>(bi - g.origin[0]);
+  const auto gj = static_cast<std::uint32_t>(bj - g.origin[1]);
+  const auto gk = static_cast<std::uint32_t>(bk - g.origin[2]);
+  if (gi >= g.dim[0] || gj >= g.dim[1] || gk >= g.dim[2]) return acquire_block(bi, bj, bk);
+  std::uint16_t& cell = g.cells[gi + g.dim[0] * (gj + g.dim[1] * gk)];
   if (cell != 0) return &pool_[cell - 1u];
   Block* b = acquire_block(bi, bj, bk);
   // Blocks touched this frame are never evicted this frame, so the cached slot stays valid.
@@ -531,6 +536,10 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   const Eigen::Array4i base_x = Eigen::Array4i::Constant(key_base_[0]);
   const Eigen::Array4i base_y = Eigen::Array4i::Constant(key_base_[1]);
   const Eigen::Array4i base_z = Eigen::Array4i::Constant(key_base_[2]);
+  const std::int32_t key_block_x = key_base_[0] >> kBlockBits;
+  const std::int32_t key_block_y = key_base_[1] >> kBlockBits;
+  const std::int32_t key_block_z = key_base_[2] >> kBlockBits;
+  const LocalGrid grid = local_grid();
   // Keys are >= 0, so the first pixel (and the one after a failed lookup) looks its block up.
   std::int32_t current_key = -1;
   std::size_t ray_count = ray_count_;
@@ -617,10 +626,8 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
         const std::int32_t lane_key = key[l];
         ++pixels;
         if (lane_key != current_key) {
-          const std::int32_t nbx = blk_x[l] + (key_base_[0] >> kBlockBits);
-          const std::int32_t nby = blk_y[l] + (key_base_[1] >> kBlockBits);
-          const std::int32_t nbz = blk_z[l] + (key_base_[2] >> kBlockBits);
-          block = local_block(nbx, nby, nbz);
+          block = local_block(grid, blk_x[l] + key_block_x, blk_y[l] + key_block_y,
+                              blk_z[l] + key_block_z);
           if (block == nullptr) {
             current_key = -1;
             ++dropped;
@@ -678,6 +685,7 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
   const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
   const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
   const float res = resolution_;
+  const LocalGrid grid = local_grid();
   constexpr float kInf = std::numeric_limits<float>::infinity();
   IndexVec camera{};
   if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
@@ -799,7 +807,7 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       std::size_t n = steps;       // visits left on this ray, including the current voxel
       std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
       const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
-        block = local_block(i, j, k);
+        block = local_block(grid, i, j, k);
         if (block != nullptr) return;
         // Visits there are counted as dropped updates; the sink's stamps all read "hit this
         // frame", so the hot loop needs no null test, and an early-stop walk is not stopped
