@@ -418,18 +418,23 @@ OccupancyMap::Block* OccupancyMap::acquire_block(std::int32_t bi, std::int32_t b
   return b;
 }
 
-inline OccupancyMap::Block* OccupancyMap::local_block(std::int32_t bi, std::int32_t bj,
-                                                      std::int32_t bk) noexcept {
-  const std::int32_t gi = bi - grid_origin_[0], gj = bj - grid_origin_[1],
-                     gk = bk - grid_origin_[2];
-  if (!grid_enabled_ ||
-      static_cast<std::uint32_t>(gi) >= static_cast<std::uint32_t>(grid_dim_[0]) ||
-      static_cast<std::uint32_t>(gj) >= static_cast<std::uint32_t>(grid_dim_[1]) ||
-      static_cast<std::uint32_t>(gk) >= static_cast<std::uint32_t>(grid_dim_[2])) {
-    return acquire_block(bi, bj, bk);
+inline OccupancyMap::LocalGrid OccupancyMap::local_grid() noexcept {
+  LocalGrid g{grid_origin_, {}, local_grid_.data()};
+  if (grid_enabled_) {
+    for (std::size_t a = 0; a < 3; ++a) g.dim[a] = static_cast<std::uint32_t>(grid_dim_[a]);
   }
-  std::uint16_t& cell =
-      local_grid_[static_cast<std::size_t>(gi + grid_dim_[0] * (gj + grid_dim_[1] * gk))];
+  return g;
+}
+
+inline OccupancyMap::Block* OccupancyMap::local_block(const LocalGrid& g, std::int32_t bi,
+                                                      std::int32_t bj, std::int32_t bk) noexcept {
+  // Unsigned compares reject both sides; a disabled grid has dimensions 0, so every block goes
+  // to the table.
+  const auto gi = static_cast<std::uint32_t>(bi - g.origin[0]);
+  const auto gj = static_cast<std::uint32_t>(bj - g.origin[1]);
+  const auto gk = static_cast<std::uint32_t>(bk - g.origin[2]);
+  if (gi >= g.dim[0] || gj >= g.dim[1] || gk >= g.dim[2]) return acquire_block(bi, bj, bk);
+  std::uint16_t& cell = g.cells[gi + g.dim[0] * (gj + g.dim[1] * gk)];
   if (cell != 0) return &pool_[cell - 1u];
   Block* b = acquire_block(bi, bj, bk);
   // Blocks touched this frame are never evicted this frame, so the cached slot stays valid.
@@ -502,7 +507,10 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   Block* block = nullptr;
   // Loop constants in locals: the map writes below could otherwise alias the members, and the
   // compiler would reload and re-broadcast them for every packet.
-  const std::uint32_t hit_raw_end = hit_raw_end_, near_raw_end = near_raw_end_;
+  const Eigen::Array4i hit_raw_end_i =
+      Eigen::Array4i::Constant(static_cast<std::int32_t>(hit_raw_end_));
+  const Eigen::Array4i near_raw_end_i =
+      Eigen::Array4i::Constant(static_cast<std::int32_t>(near_raw_end_));
   const float scale = depth_scale_, inv_res = inv_resolution_;
   const Eigen::Array4f half_x = Eigen::Array4f::Constant(half_extent4_[0]);
   const Eigen::Array4f half_y = Eigen::Array4f::Constant(half_extent4_[1]);
@@ -516,6 +524,10 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   const Eigen::Array4i base_x = Eigen::Array4i::Constant(key_base_[0]);
   const Eigen::Array4i base_y = Eigen::Array4i::Constant(key_base_[1]);
   const Eigen::Array4i base_z = Eigen::Array4i::Constant(key_base_[2]);
+  const std::int32_t key_block_x = key_base_[0] >> kBlockBits;
+  const std::int32_t key_block_y = key_base_[1] >> kBlockBits;
+  const std::int32_t key_block_z = key_base_[2] >> kBlockBits;
+  const LocalGrid grid = local_grid();
   // Keys are >= 0, so the first pixel (and the one after a failed lookup) looks its block up.
   std::int32_t current_key = -1;
   std::size_t ray_count = ray_count_;
@@ -542,8 +554,8 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
           raw[static_cast<std::size_t>(l)] = px[std::min(l, lanes - 1) * stride];
         }
       }
-      const Eigen::Array4f raw_f{static_cast<float>(raw[0]), static_cast<float>(raw[1]),
-                                 static_cast<float>(raw[2]), static_cast<float>(raw[3])};
+      const Eigen::Array4i raw_i{raw[0], raw[1], raw[2], raw[3]};
+      const Eigen::Array4f raw_f = raw_i.cast<float>();  // exact: raw < 2^16
       // Free rays (no return, or beyond max_depth) are cast to max_depth. Select-free form:
       // (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
       const Eigen::Array4f z_ray =
@@ -556,12 +568,21 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
       const Eigen::Array4f outside =
           (off_x.abs() - half_x).max(off_y.abs() - half_y).max(off_z.abs() - half_z);
       const bool any_outside = outside.maxCoeff() > 0.f;
-      Eigen::Array4f clip_scale = Eigen::Array4f::Ones();
+      // Lane classes as 0/1 integers, computed in the lanes (arithmetic shifts give -1 where
+      // the difference is negative): raw in [1, near_raw_end) is closer than min_depth and
+      // skipped; raw in [near_raw_end, hit_raw_end) is a hit unless clipped; the rest (0, or
+      // beyond max_depth) are free rays. near_raw_end >= 1 and near_raw_end <= hit_raw_end, so
+      // each difference below is 0 or 1.
+      const Eigen::Array4i below_zero = (raw_i - 1).shiftRight<31>();
+      const Eigen::Array4i below_near = (raw_i - near_raw_end_i).shiftRight<31>();
+      const Eigen::Array4i below_hit = (raw_i - hit_raw_end_i).shiftRight<31>();
+      const Eigen::Array4i too_near = below_zero - below_near;  // 1: skip the pixel
+      Eigen::Array4i hit_lane = below_near - below_hit;         // 1: measured and not near
       if (any_outside) {
         // end_point()'s clip: min(1, h/|o|) is 1 where |o| <= h (h/|o| >= 1, or inf), so the
         // minimum over axes is its scale; lanes inside keep the factor 1 exactly. The factor
         // is shrink where scale < 1 and shrink + (1 - c) = c + (1 - c) = 1 (exact) where not.
-        clip_scale =
+        const Eigen::Array4f clip_scale =
             (half_x / off_x.abs()).min(half_y / off_y.abs()).min(half_z / off_z.abs()).min(1.f);
         constexpr float kInside = 1.f - 1e-4f;
         const Eigen::Array4f shrink = clip_scale * kInside;
@@ -571,6 +592,9 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
         off_x *= factor;
         off_y *= factor;
         off_z *= factor;
+        // A clipped ray loses its hit: hit and unclipped are both 0/1, so (hit + unclipped) >> 1
+        // is their conjunction.
+        hit_lane = (hit_lane + unclipped.cast<std::int32_t>()).shiftRight<1>();
       }
       const Eigen::Array4i ix = floor_lanes((origin_x + off_x) * inv_res) - base_x;
       const Eigen::Array4i iy = floor_lanes((origin_y + off_y) * inv_res) - base_y;
@@ -585,17 +609,13 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
       const Eigen::Array4i key =
           blk_x + (blk_y + blk_z.shiftLeft<kKeyBlockBits>()).shiftLeft<kKeyBlockBits>();
       for (int l = 0; l < lanes; ++l) {
-        const std::uint32_t r = raw[static_cast<std::size_t>(l)];
-        const bool measured = r != 0 && r < hit_raw_end;
-        if (measured && r < near_raw_end) continue;           // closer than min_depth
-        const bool hit = measured && !(clip_scale[l] < 1.f);  // a clipped ray loses its hit
+        if (too_near[l] != 0) continue;  // closer than min_depth
+        const bool hit = hit_lane[l] != 0;
         const std::int32_t lane_key = key[l];
         ++pixels;
         if (lane_key != current_key) {
-          const std::int32_t nbx = blk_x[l] + (key_base_[0] >> kBlockBits);
-          const std::int32_t nby = blk_y[l] + (key_base_[1] >> kBlockBits);
-          const std::int32_t nbz = blk_z[l] + (key_base_[2] >> kBlockBits);
-          block = local_block(nbx, nby, nbz);
+          block = local_block(grid, blk_x[l] + key_block_x, blk_y[l] + key_block_y,
+                              blk_z[l] + key_block_z);
           if (block == nullptr) {
             current_key = -1;
             ++dropped;
@@ -653,6 +673,7 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
   const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
   const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
   const float res = resolution_;
+  const LocalGrid grid = local_grid();
   constexpr float kInf = std::numeric_limits<float>::infinity();
   IndexVec camera{};
   if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
@@ -774,7 +795,7 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
       std::size_t n = steps;       // visits left on this ray, including the current voxel
       std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
       const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
-        block = local_block(i, j, k);
+        block = local_block(grid, i, j, k);
         if (block != nullptr) return;
         // Visits there are counted as dropped updates; the sink's stamps all read "hit this
         // frame", so the hot loop needs no null test, and an early-stop walk is not stopped

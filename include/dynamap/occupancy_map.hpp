@@ -236,7 +236,16 @@ class OccupancyMap {
 
   // Integration internals (src/occupancy_map.cpp).
   Block* acquire_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
-  Block* local_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
+  /// The local block grid's geometry for one frame, held in the integration loops' locals so
+  /// a block look-up does not reload the members after every map write (or after a call).
+  struct LocalGrid {
+    std::array<std::int32_t, 3> origin;  ///< grid_origin_
+    std::array<std::uint32_t, 3> dim;    ///< grid_dim_, all 0 when the grid is disabled
+    std::uint16_t* cells;                ///< local_grid_
+  };
+  LocalGrid local_grid() noexcept;
+  Block* local_block(const LocalGrid& g, std::int32_t bi, std::int32_t bj,
+                     std::int32_t bk) noexcept;
   Block* allocate_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
   std::size_t evict_far_blocks() noexcept;
   void release_block(std::uint32_t slot) noexcept;
