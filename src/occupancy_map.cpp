@@ -299,15 +299,7 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
         return true;
       }
       if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
-      std::size_t ax = 0;
-      if (t_max[1] < t_max[ax]) ax = 1;
-      if (t_max[2] < t_max[ax]) ax = 2;
-      idx[ax] += step[ax];
-      if (--remaining[ax] == 0) {
-        t_max[ax] = kInf;
-      } else {
-        t_max[ax] += t_delta[ax];
-      }
+      const std::size_t ax = w.advance(idx);
       if (++n >= kMaxSegmentVisits) return false;
       if (inside[ax]-- == 0) break;  // crossed into the next block
     }

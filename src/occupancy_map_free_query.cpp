@@ -2,7 +2,6 @@
 // integration code in occupancy_map.cpp (it reads the map, it never changes it).
 #include <cmath>
 #include <cstdlib>
-#include <limits>
 
 #include "dynamap/occupancy_map.hpp"
 #include "segment_walk.hpp"
@@ -23,11 +22,6 @@ bool OccupancyMap::first_non_free_on_segment(const Eigen::Vector3f& a, const Eig
     return true;
   }
   detail::SegmentWalk w = detail::start_segment_walk(a, b, idx, end, resolution_);
-  std::int32_t* const step = w.step;
-  std::int32_t* const remaining = w.remaining;
-  float* const t_max = w.t_max;
-  float* const t_delta = w.t_delta;
-  constexpr float kInf = std::numeric_limits<float>::infinity();
   // One table lookup per block entered, not per voxel.
   std::int32_t bi = idx[0] >> kBlockBits, bj = idx[1] >> kBlockBits, bk = idx[2] >> kBlockBits;
   const Block* block = find_block(bi, bj, bk);
@@ -48,16 +42,8 @@ bool OccupancyMap::first_non_free_on_segment(const Eigen::Vector3f& a, const Eig
       if (state != nullptr) *state = s;
       return true;
     }
-    if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
-    std::size_t ax = 0;
-    if (t_max[1] < t_max[ax]) ax = 1;
-    if (t_max[2] < t_max[ax]) ax = 2;
-    idx[ax] += step[ax];
-    if (--remaining[ax] == 0) {
-      t_max[ax] = kInf;
-    } else {
-      t_max[ax] += t_delta[ax];
-    }
+    if (w.remaining[0] + w.remaining[1] + w.remaining[2] == 0) return false;
+    (void)w.advance(idx);
   }
   // Walk budget spent: the rest of the segment was not checked, so it cannot count as free.
   if (hit != nullptr) *hit = center_of(idx);

@@ -19,6 +19,21 @@ struct SegmentWalk {
   std::int32_t remaining[3];
   float t_max[3];
   float t_delta[3];
+
+  /// One voxel step along the axis whose next boundary comes first (ties to the lower axis);
+  /// returns that axis. Needs a step left on some axis.
+  std::size_t advance(std::array<std::int32_t, 3>& idx) noexcept {
+    std::size_t ax = 0;
+    if (t_max[1] < t_max[ax]) ax = 1;
+    if (t_max[2] < t_max[ax]) ax = 2;
+    idx[ax] += step[ax];
+    if (--remaining[ax] == 0) {
+      t_max[ax] = std::numeric_limits<float>::infinity();
+    } else {
+      t_max[ax] += t_delta[ax];
+    }
+    return ax;
+  }
 };
 
 inline SegmentWalk start_segment_walk(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
