@@ -68,15 +68,9 @@ int run(int argc, char** argv) {
     return 2;
   }
   const std::string seq_dir = argv[1];
-  std::string params;
-  for (int i = 2; i + 1 < argc; ++i) {
-    if (std::string(argv[i]) == "--params") params = argv[i + 1];
-  }
   const Sequence seq = read_sequence(seq_dir);
-  const PipelineConfig config = config_for_sequence(seq, params);
-  auto pipeline = std::make_unique<Pipeline>();
-  ConfigError ce;
-  if (!ok(pipeline->init(config, &ce))) throw ToolError(std::string("config: ") + ce.field);
+  const PipelineConfig config = config_for_sequence(seq, option_value(argc, argv, 2, "--params"));
+  const auto pipeline = make_pipeline(config);
   const StaticWorld world = read_static_world(join_path(seq_dir, "static_world.txt"));
   const double floor_z = world.has_floor ? world.floor_z : 0.0;
   std::map<std::string, std::vector<ObstacleRecord>> truth;  // by stamp text

@@ -227,11 +227,7 @@ int run(const Options& o) {
                     std::to_string(kMaxImageWidth) + "x" + std::to_string(kMaxImageHeight));
   }
   const PipelineConfig config = config_for_sequence(seq, o.params);
-  auto pipeline = std::make_unique<Pipeline>();
-  ConfigError ce;
-  if (!ok(pipeline->init(config, &ce))) {
-    throw ToolError(std::string("configuration rejected: ") + ce.field + ": " + ce.reason);
-  }
+  const auto pipeline = make_pipeline(config);
   if (o.cpu_clock) pipeline->set_clock(&thread_cpu_clock);
 
   std::unique_ptr<StaticWorld> world;

@@ -314,4 +314,20 @@ PipelineConfig config_for_sequence(const Sequence& seq, const std::string& param
   return config;
 }
 
+std::unique_ptr<Pipeline> make_pipeline(const PipelineConfig& config) {
+  auto pipeline = std::make_unique<Pipeline>();
+  ConfigError ce;
+  if (!ok(pipeline->init(config, &ce))) {
+    throw ToolError(std::string("configuration rejected: ") + ce.field + ": " + ce.reason);
+  }
+  return pipeline;
+}
+
+std::string option_value(int argc, char** argv, int first, const std::string& name) {
+  for (int i = first; i + 1 < argc; ++i) {
+    if (argv[i] == name) return argv[i + 1];
+  }
+  return "";
+}
+
 }  // namespace dynamap::tools

@@ -3,10 +3,12 @@
 // naming the file, the line and the key; then the whole configuration is validated.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "common/sequence.hpp"
+#include "dynamap/pipeline.hpp"
 #include "dynamap/pipeline_config.hpp"
 #include "dynamap/types.hpp"
 
@@ -27,5 +29,12 @@ Pose to_pose(const PoseD& pose);
 /// Default configuration with the sequence's camera, then the parameter file on top when
 /// `params_file` is not empty; a bad file throws ToolError with apply_params_file's message.
 PipelineConfig config_for_sequence(const Sequence& seq, const std::string& params_file);
+
+/// A pipeline initialised with `config`, on the heap (it holds its whole ~9.5 MiB budget
+/// inline); throws ToolError naming the rejected field and why.
+std::unique_ptr<Pipeline> make_pipeline(const PipelineConfig& config);
+
+/// The value after option `name` among argv[first..argc), or "" when it is not given.
+std::string option_value(int argc, char** argv, int first, const std::string& name);
 
 }  // namespace dynamap::tools
