@@ -361,6 +361,7 @@ void Tracker::publish() noexcept {
     t.out.dynamic = t.label;
     t.out.dynamic_votes = static_cast<std::uint32_t>(t.voter.dynamic_votes());
     t.out.votes = static_cast<std::uint32_t>(t.voter.votes());
+    t.out.dynamic_streak = static_cast<std::uint32_t>(t.dynamic_streak);
     output_[output_count_] = t.out;
     output_slot_[output_count_] = static_cast<std::uint8_t>(s);
     ++output_count_;

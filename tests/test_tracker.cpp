@@ -336,7 +336,8 @@ TEST(TrackerLabels, BoxThatOnlyShrinksVotesStaticOneThatTranslatesVotesDynamic) 
 }
 
 // A walker at detector noise (1.6 cm) seen on every frame: the early label comes after the first
-// 8 votes, which start with 2 * 3 + 1 states (frame 13); without it the T_c rule needs frame 26.
+// 4 votes, which start with 2 * 3 + 1 states (frame 6), so at frame 9; without it the T_c rule
+// needs frame 26.
 TEST(TrackerLabels, CleanWalkerIsLabelledEarly) {
   for (unsigned seed = 1; seed <= 5; ++seed) {
     for (const bool early : {true, false}) {
@@ -356,7 +357,7 @@ TEST(TrackerLabels, CleanWalkerIsLabelledEarly) {
                                Eigen::Vector3f(noise(rng), noise(rng), 0.f));
       });
       if (early) {
-        EXPECT_EQ(run.first_dynamic, 13) << "seed " << seed;
+        EXPECT_EQ(run.first_dynamic, 9) << "seed " << seed;
       } else {
         EXPECT_GE(run.first_dynamic, 26) << "seed " << seed;
       }
@@ -366,7 +367,8 @@ TEST(TrackerLabels, CleanWalkerIsLabelledEarly) {
 }
 
 // The same walker detected on only three frames of four (the wall pieces that pass a vote
-// flicker like that): no early label, only the T_c rule's, much later.
+// flicker like that): no early label, only the T_c rule's, much later. Its runs of dynamic votes
+// are 3 long, one short of early_votes.
 TEST(TrackerLabels, FlickeringTrackGetsNoEarlyLabel) {
   auto tracker = make_tracker();
   Stamp stamp = 0;
@@ -386,7 +388,7 @@ TEST(TrackerLabels, FlickeringTrackGetsNoEarlyLabel) {
 // gets it back after `early_votes` consecutive dynamic votes instead of T_c of c.
 TEST(TrackerLabels, WalkerAfterAPauseIsRelabelledEarly) {
   std::array<int, 2> relabel_frames{};
-  for (const std::size_t early : {std::size_t{8}, std::size_t{0}}) {
+  for (const std::size_t early : {TrackerConfig{}.early_votes, std::size_t{0}}) {
     TrackerConfig config;
     config.early_votes = early;
     auto tracker = make_tracker(config);
@@ -412,7 +414,7 @@ TEST(TrackerLabels, WalkerAfterAPauseIsRelabelledEarly) {
     relabel_frames[early > 0 ? 0 : 1] = relabelled;
   }
   // The first dynamic vote needs the speed (> 0.4 m/s) and the 10-frame displacements back;
-  // from there 8 votes instead of 16.
+  // from there 4 votes instead of 16.
   EXPECT_LE(relabel_frames[0] + 6, relabel_frames[1])
       << "early " << relabel_frames[0] << " T_c rule " << relabel_frames[1];
 }

@@ -41,7 +41,7 @@ int run(int argc, char** argv) {
                "size_fixed,sx,sy,gt_id,gt_dist,gt_vx,gt_vy,gt_visible,gt_depth,gt_turn_rate,det,"
                "det_x,det_y,"
                "det_sx,det_sy,det_u0,det_u1,det_v0,det_v1,det_near,det_touch_nearer,det_touch,"
-               "cam_x,cam_y,raw_x,raw_y,raw_sx,raw_sy,refined\n";
+               "cam_x,cam_y,raw_x,raw_y,raw_sx,raw_sy,refined,streak,sz\n";
   auto out = std::make_unique<FrameOutput>();
   for (std::size_t f = 0; f < seq.frames.size(); ++f) {
     const SequenceFrame& sf = seq.frames[f];
@@ -121,10 +121,11 @@ int run(int argc, char** argv) {
         const Detection& d = dets[static_cast<std::size_t>(ob.detection)];
         const Eigen::Vector3f rc = d.raw_box.center(), rs = d.raw_box.size();
         std::cout << "," << rc.x() << "," << rc.y() << "," << rs.x() << "," << rs.y() << ","
-                  << d.refined << "\n";
+                  << d.refined;
       } else {
-        std::cout << ",0,0,0,0,0\n";
+        std::cout << ",0,0,0,0,0";
       }
+      std::cout << "," << ob.dynamic_streak << "," << sz.z() << "\n";
     }
   }
   return 0;
