@@ -8,7 +8,8 @@ Status ContinuityConfig::validate() const noexcept {
   const bool good = displacement_frames >= 1 && vote_window >= 1 && vote_window <= kMaxVoteWindow &&
                     dynamic_votes <= vote_window && static_votes < dynamic_votes &&
                     std::isfinite(continuity_threshold) && std::isfinite(min_speed) &&
-                    min_size.allFinite() && max_size.allFinite();
+                    min_size.allFinite() && max_size.allFinite() &&
+                    (min_size.array() >= 0.f).all() && (min_size.array() <= max_size.array()).all();
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 

@@ -86,6 +86,13 @@ ConfigError validate(const PipelineConfig& c) noexcept {
             "tracker.history_length", "must be in 2..kMaxTrackHistory-1");
   k.require(c.tracker.box_history_length >= 1 && c.tracker.box_history_length <= kMaxBoxHistory,
             "tracker.box_history_length", "must be in 1..kMaxBoxHistory");
+  {
+    const ContinuityConfig& cc = c.tracker.continuity;
+    k.require(cc.min_size.allFinite() && (cc.min_size.array() >= 0.f).all(),
+              "tracker.continuity.min_size", "must be finite and >= 0 on every axis");
+    k.require(cc.max_size.allFinite() && (cc.max_size.array() >= cc.min_size.array()).all(),
+              "tracker.continuity.max_size", "must be finite and >= min_size on every axis");
+  }
 
   // Predictor.
   k.require(c.predictor.paths.num_paths >= 1 && c.predictor.paths.num_paths <= kMaxPaths,

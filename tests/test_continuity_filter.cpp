@@ -52,12 +52,33 @@ TEST(ContinuityFilter, VoteNeedsSpeedAndContinuityAtOrAboveThreshold) {
   EXPECT_FALSE(f.vote(1.0f, cfg.continuity_threshold - 0.01f, person));
   EXPECT_FALSE(f.vote(cfg.min_speed, 1.f, person));  // speed must exceed v_min
   EXPECT_FALSE(f.vote(std::nanf(""), 1.f, person));
+}
 
-  cfg.check_size = true;
+TEST(ContinuityFilter, SizeCheckHasUpperLimitsOnlyByDefault) {
+  ContinuityConfig cfg;
+  ASSERT_TRUE(cfg.check_size);
   const ContinuityFilter sized(cfg);
-  EXPECT_TRUE(sized.vote(1.f, 1.f, person));
-  EXPECT_FALSE(sized.vote(1.f, 1.f, Eigen::Vector3f(3.f, 1.5f, 1.5f)));  // a car
-  EXPECT_FALSE(sized.vote(1.f, 1.f, Eigen::Vector3f(0.05f, 0.05f, 0.3f)));
+  EXPECT_TRUE(sized.vote(1.f, 1.f, Eigen::Vector3f(0.5f, 0.5f, 1.7f)));     // a person
+  EXPECT_TRUE(sized.vote(1.f, 1.f, Eigen::Vector3f(0.05f, 0.05f, 0.3f)));   // partly hidden
+  EXPECT_FALSE(sized.vote(1.f, 1.f, Eigen::Vector3f(3.f, 1.5f, 1.5f)));     // a car
+  EXPECT_FALSE(sized.vote(1.f, 1.f, Eigen::Vector3f(0.05f, 1.0f, 2.55f)));  // a wall piece
+  cfg.min_size = Eigen::Vector3f(0.2f, 0.2f, 0.8f);
+  const ContinuityFilter with_lower(cfg);
+  EXPECT_FALSE(with_lower.vote(1.f, 1.f, Eigen::Vector3f(0.05f, 0.05f, 0.3f)));
+  cfg.check_size = false;
+  const ContinuityFilter unsized(cfg);
+  EXPECT_TRUE(unsized.vote(1.f, 1.f, Eigen::Vector3f(3.f, 1.5f, 1.5f)));
+  EXPECT_TRUE(unsized.vote(1.f, 1.f, Eigen::Vector3f(0.05f, 1.0f, 2.55f)));
+}
+
+TEST(ContinuityConfig, SizeLimitsMustBeOrderedAndNonNegative) {
+  ContinuityConfig cfg;
+  cfg.min_size = Eigen::Vector3f(0.f, 0.f, 2.5f);  // above max_size.z
+  EXPECT_EQ(cfg.validate(), Status::kInvalidArgument);
+  cfg.min_size = Eigen::Vector3f(-0.1f, 0.f, 0.f);
+  EXPECT_EQ(cfg.validate(), Status::kInvalidArgument);
+  cfg.min_size = Eigen::Vector3f::Zero();
+  EXPECT_EQ(cfg.validate(), Status::kOk);
 }
 
 TEST(DynamicVoter, ThresholdsAndHysteresis) {

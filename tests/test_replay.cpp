@@ -208,6 +208,27 @@ TEST(Replay, BadBeliefUpdateIsRefused) {
       << r.output;
 }
 
+// The size limits are 3-vectors, written as YAML lists: three numbers are taken, anything else
+// (two numbers, a scalar, a word, limits out of order) is refused with the file, line and key.
+TEST(Replay, SizeLimitListsAreValidated) {
+  const std::string params = ::testing::TempDir() + "size_limits.yaml";
+  std::ofstream(params) << "tracker:\n  continuity:\n    max_size: [2.5, 2.5, 2.4]\n";
+  RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("sl_out") +
+                           " --max-frames 1 --quiet --params " + params);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  for (const char* bad : {"[2.5, 2.4]", "2.4", "[1, 1, tall]", "[0.1, 0.1, -1]"}) {
+    std::ofstream(params) << "tracker:\n  continuity:\n    check_size: true\n    max_size: " << bad
+                          << "\n";
+    r = run_replay(corridor_sequence() + " --out " + fresh_dir("sl_out2") + " --params " + params);
+    EXPECT_NE(r.exit_code, 0) << bad;
+    EXPECT_NE(r.output.find("tracker.continuity"), std::string::npos) << bad << ": " << r.output;
+  }
+  std::ofstream(params) << "tracker:\n  continuity:\n    max_size: [2.5, 2.4]\n";
+  r = run_replay(corridor_sequence() + " --out " + fresh_dir("sl_out3") + " --params " + params);
+  EXPECT_NE(r.output.find(params + ":3"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("a list of three numbers"), std::string::npos) << r.output;
+}
+
 TEST(Replay, NegativeEarlyStopCountIsRefused) {
   const std::string params = ::testing::TempDir() + "bad_early_stop.yaml";
   std::ofstream(params) << "map:\n  free_ray_early_stop: -3\n";

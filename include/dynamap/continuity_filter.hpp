@@ -24,14 +24,17 @@ struct ContinuityConfig {
   std::size_t vote_window = 20;          ///< c: votes kept (<= kMaxVoteWindow)
   std::size_t dynamic_votes = 16;        ///< T_c: >= this many dynamic votes -> dynamic
   std::size_t static_votes = 4;          ///< <= this many dynamic votes -> static
-  /// Optional plausibility test on the obstacle size (off by default): a frame votes dynamic only
-  /// when min_size <= size <= max_size on every axis (e.g. person-sized boxes).
-  bool check_size = false;
-  Eigen::Vector3f min_size{0.2f, 0.2f, 0.8f};
-  Eigen::Vector3f max_size{1.2f, 1.2f, 2.2f};
+  /// Plausibility test on the obstacle size: a frame votes dynamic only when min_size <= size <=
+  /// max_size on every axis. On by default with upper limits only: the pieces of wall that slide
+  /// as the camera moves are as tall as the wall in view (2.5 m), people are not; partly hidden
+  /// people have small boxes, so there is no lower limit (measured: docs/tracker.md, "Size
+  /// check"). Raise max_size to track larger movers (vehicles), or turn it off.
+  bool check_size = true;
+  Eigen::Vector3f min_size{0.f, 0.f, 0.f};
+  Eigen::Vector3f max_size{2.0f, 2.0f, 2.2f};
 
   /// kInvalidArgument unless n >= 1, 0 < c <= kMaxVoteWindow, static_votes < dynamic_votes <= c,
-  /// and thresholds are finite.
+  /// thresholds are finite and 0 <= min_size <= max_size.
   Status validate() const noexcept;
 };
 

@@ -18,6 +18,7 @@ struct Param {
   std::function<bool(const YAML::Node&, PipelineConfig&)> set;
   std::function<std::string(const PipelineConfig&)> get;
   std::string allowed;  // spelled-out values of an enum key, for the error message
+  bool list = false;    // the value is a YAML list (a 3-vector), not a scalar
 };
 
 template <typename Access>
@@ -45,6 +46,32 @@ Param make_param(const char* key, Access access) {
     os << +*access(const_cast<PipelineConfig&>(c));
     return os.str();
   };
+  return p;
+}
+
+// A 3-vector (x, y, z), written as a YAML list of three numbers: [0.2, 0.2, 0.8].
+Param vector3_param(const char* key, Eigen::Vector3f* (*access)(PipelineConfig&)) {
+  Param p;
+  p.key = key;
+  p.list = true;
+  p.set = [access](const YAML::Node& n, PipelineConfig& c) {
+    if (!n.IsSequence() || n.size() != 3) return false;
+    Eigen::Vector3f v;
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (!n[i].IsScalar() || !YAML::convert<float>::decode(n[i], v[static_cast<int>(i)])) {
+        return false;
+      }
+    }
+    *access(c) = v;
+    return true;
+  };
+  p.get = [access](const PipelineConfig& c) {
+    const Eigen::Vector3f& v = *access(const_cast<PipelineConfig&>(c));
+    std::ostringstream os;
+    os << "[" << v.x() << ", " << v.y() << ", " << v.z() << "]";
+    return os.str();
+  };
+  p.allowed = "a list of three numbers, [x, y, z]";
   return p;
 }
 
@@ -171,6 +198,10 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.continuity.dynamic_votes),
       DYNAMAP_PARAM(tracker.continuity.static_votes),
       DYNAMAP_PARAM(tracker.continuity.check_size),
+      vector3_param("tracker.continuity.min_size",
+                    [](PipelineConfig& c) { return &c.tracker.continuity.min_size; }),
+      vector3_param("tracker.continuity.max_size",
+                    [](PipelineConfig& c) { return &c.tracker.continuity.max_size; }),
       DYNAMAP_PARAM(tracker.overlap_threshold),
       DYNAMAP_PARAM(tracker.centre_gate),
       DYNAMAP_PARAM(tracker.max_missed_frames),
@@ -248,10 +279,11 @@ std::string apply_node(const std::string& path, const YAML::Node& node, const st
       return where(path, kv.first) + ": unknown parameter '" + key +
              "' (dynamap-replay --help-params lists them all)";
     }
-    if (!value.IsScalar() || !param->set(value, config)) {
+    if (value.IsScalar() == param->list || !param->set(value, config)) {
       return where(path, value) + ": bad value for '" + key + "': '" +
-             (value.IsScalar() ? value.Scalar() : std::string("<not a scalar>")) + "'" +
-             (param->allowed.empty() ? std::string() : " (must be " + param->allowed + ")");
+             (value.IsScalar() ? value.Scalar()
+                               : std::string(value.IsSequence() ? "<a list>" : "<not a scalar>")) +
+             "'" + (param->allowed.empty() ? std::string() : " (must be " + param->allowed + ")");
     }
   }
   return "";
