@@ -149,6 +149,8 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(map.max_depth),
       DYNAMAP_PARAM(map.pixel_margin),
       DYNAMAP_PARAM(map.pixel_stride),
+      vector3_param("map.local_half_extent",
+                    [](PipelineConfig& c) { return &c.map.local_half_extent; }),
       DYNAMAP_PARAM(map.max_blocks),
       DYNAMAP_PARAM(map.max_rays_per_frame),
       DYNAMAP_PARAM(map.max_voxel_visits_per_frame),
