@@ -17,13 +17,32 @@
 namespace dynamap::tools {
 namespace {
 
+// Every file of this process lives under one directory named after its pid, so two test runs
+// (two build trees, two presets) never share or delete each other's sequences; removed at exit.
+const std::string& scratch_dir() {
+  static const std::string dir = [] {
+    const std::string d =
+        ::testing::TempDir() + "dynamap_replay_" + std::to_string(::getpid()) + "/";
+    (void)std::system(("rm -rf '" + d + "' && mkdir -p '" + d + "'").c_str());
+    return d;
+  }();
+  return dir;
+}
+
+class ScratchCleanup : public ::testing::Environment {
+ public:
+  void TearDown() override { (void)std::system(("rm -rf '" + scratch_dir() + "'").c_str()); }
+};
+[[maybe_unused]] ::testing::Environment* const kScratchCleanup =
+    ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
 struct RunResult {
   int exit_code;
   std::string output;  // stdout + stderr
 };
 
 RunResult run_replay(const std::string& args) {
-  const std::string log = ::testing::TempDir() + "replay_log.txt";
+  const std::string log = scratch_dir() + "replay_log.txt";
   const std::string cmd = std::string(DYNAMAP_REPLAY_EXE) + " " + args + " > " + log + " 2>&1";
   const int rc = std::system(cmd.c_str());
   std::ifstream f(log);
@@ -33,7 +52,7 @@ RunResult run_replay(const std::string& args) {
 }
 
 std::string fresh_dir(const std::string& name) {
-  const std::string d = ::testing::TempDir() + "dynamap_replay_" + name;
+  const std::string d = scratch_dir() + name;
   (void)std::system(("rm -rf '" + d + "'").c_str());
   return d;
 }
@@ -159,7 +178,7 @@ TEST(Replay, NonSixteenBitPngNamesTheFile) {
 }
 
 TEST(Replay, UnknownParameterKeyNamesFileLineAndKey) {
-  const std::string params = ::testing::TempDir() + "bad_params.yaml";
+  const std::string params = scratch_dir() + "bad_params.yaml";
   std::ofstream(params) << "map:\n  resolution: 0.1\n  resolutoin: 0.2\n";
   const RunResult r =
       run_replay(corridor_sequence() + " --out " + fresh_dir("p_out") + " --params " + params);
@@ -169,7 +188,7 @@ TEST(Replay, UnknownParameterKeyNamesFileLineAndKey) {
 }
 
 TEST(Replay, BadParameterValueIsRefused) {
-  const std::string params = ::testing::TempDir() + "bad_value.yaml";
+  const std::string params = scratch_dir() + "bad_value.yaml";
   std::ofstream(params) << "tracker:\n  overlap_threshold: 3.5\n";
   const RunResult r =
       run_replay(corridor_sequence() + " --out " + fresh_dir("v_out") + " --params " + params);
@@ -180,7 +199,7 @@ TEST(Replay, BadParameterValueIsRefused) {
 // The motion model is spelled "cv" or "imm"; anything else, and IMM noises that are not
 // positive, are refused before any frame is replayed.
 TEST(Replay, BadMotionModelIsRefused) {
-  const std::string params = ::testing::TempDir() + "bad_model.yaml";
+  const std::string params = scratch_dir() + "bad_model.yaml";
   std::ofstream(params) << "tracker:\n  kalman:\n    model: spline\n";
   RunResult r =
       run_replay(corridor_sequence() + " --out " + fresh_dir("m_out") + " --params " + params);
@@ -195,7 +214,7 @@ TEST(Replay, BadMotionModelIsRefused) {
 // The belief update is spelled compound, choice_only, last_choice or shifted_choice; the error
 // names the key and the accepted spellings.
 TEST(Replay, BadBeliefUpdateIsRefused) {
-  const std::string params = ::testing::TempDir() + "bad_belief.yaml";
+  const std::string params = scratch_dir() + "bad_belief.yaml";
   std::ofstream(params) << "predictor:\n  belief_update: choice-only\n";
   const RunResult r =
       run_replay(corridor_sequence() + " --out " + fresh_dir("bu_out") + " --params " + params);
@@ -211,7 +230,7 @@ TEST(Replay, BadBeliefUpdateIsRefused) {
 // The size limits are 3-vectors, written as YAML lists: three numbers are taken, anything else
 // (two numbers, a scalar, a word, limits out of order) is refused with the file, line and key.
 TEST(Replay, SizeLimitListsAreValidated) {
-  const std::string params = ::testing::TempDir() + "size_limits.yaml";
+  const std::string params = scratch_dir() + "size_limits.yaml";
   std::ofstream(params) << "tracker:\n  continuity:\n    max_size: [2.5, 2.5, 2.4]\n";
   RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("sl_out") +
                            " --max-frames 1 --quiet --params " + params);
@@ -230,7 +249,7 @@ TEST(Replay, SizeLimitListsAreValidated) {
 }
 
 TEST(Replay, NegativeEarlyStopCountIsRefused) {
-  const std::string params = ::testing::TempDir() + "bad_early_stop.yaml";
+  const std::string params = scratch_dir() + "bad_early_stop.yaml";
   std::ofstream(params) << "map:\n  free_ray_early_stop: -3\n";
   const RunResult r =
       run_replay(corridor_sequence() + " --out " + fresh_dir("es_out") + " --params " + params);
