@@ -128,8 +128,8 @@ void write_small_sequence(const TempDir& dir) {
 // Output directories are created with their parents; a path that cannot be one is an error
 // that names it.
 TEST(TextIo, MakeDirectoriesCreatesParentsAndNamesTheFailingPath) {
-  const fs::path root = fs::path(::testing::TempDir()) / "dynamap_mkdirs";
-  fs::remove_all(root);
+  const TempDir dir;
+  const fs::path root = fs::path(dir.str()) / "dynamap_mkdirs";
   const std::string nested = (root / "a" / "b").string();
   make_directories(nested);
   EXPECT_TRUE(fs::is_directory(nested));
