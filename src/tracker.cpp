@@ -151,6 +151,7 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.last_measured_stamp = stamp;
   t.z_center = m.center.z();
   t.size = m.size;
+  t.corrected_with = m.size;
   const bool counts = m.in_view && m.near_enough;
   t.in_view_frames = counts ? 1 : 0;
   t.size_sum = counts ? m.size : Eigen::Vector3f::Zero();
@@ -165,6 +166,16 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
                             Stamp stamp) noexcept {
   const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr);
   const Eigen::Vector2f xy = m.center.head<2>();
+  if (config_.compensate_size_steps && t.out.size_fixed && m.size != t.corrected_with) {
+    // The frozen size was just set or raised: the same detection corrected with the size of the
+    // last correction differs by the step the new size alone makes, which is no motion. Move the
+    // track's reference (filter position, position history, last measurement) by that step.
+    const Eigen::Vector2f step = xy - measure(det, camera, &t.corrected_with).center.head<2>();
+    t.kf.shift_position(step);
+    t.positions.add_to_all(step);
+    t.last_measured += step;
+  }
+  t.corrected_with = m.size;
   const float dt = seconds_between(t.last_measured_stamp, stamp);
   const Eigen::Vector2f v_meas = (xy - t.last_measured) / dt;
   float noise_scale = 1.f;

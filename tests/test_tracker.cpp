@@ -6,6 +6,7 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "alloc_guard.hpp"
@@ -444,6 +445,46 @@ TEST(TrackerSize, SizeGrowsAfterAnOcclusion) {
       EXPECT_LT(o.box.center().x(), 3.9f);
     }
   }
+}
+
+// A walker (0.5 m cylinder) crosses the view at 1 m/s, 4 m ahead, its near face x in
+// [3.75, 3.95]. For its first 10 frames only 0.2 m of its width is visible (it steps out from
+// behind an occluder), so the size is frozen at 0.2 m; 10 frames in full view later size growth
+// raises it to 0.5 m and the bias-corrected centre jumps 0.15 m away from the camera (as env_a's
+// walker 4 did, 0.18 -> 0.33 -> 0.47 m). Returns the mean velocity error over the 30 frames after
+// the step, and the last reported x centre.
+std::pair<float, float> velocity_error_after_a_size_step(bool compensate) {
+  TrackerConfig config;
+  config.compensate_size_steps = compensate;
+  auto tracker = make_tracker(config);
+  constexpr float kSpeed = 1.f, kDt = 1.f / 30.f;
+  Stamp stamp = 0;
+  float error_sum = 0.f;
+  int counted = 0;
+  for (int f = 0; f < 50; ++f) {
+    const float y = -0.8f + kSpeed * kDt * static_cast<float>(f);
+    const float width = f < 10 ? 0.2f : 0.5f;
+    const Detection d = detection({3.85f, y, 0.85f}, Eigen::Vector3f(0.2f, width, 1.7f));
+    EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    EXPECT_EQ(tracker->size(), 1u);
+    if (f >= 20) {
+      error_sum += (tracker->obstacle(0).velocity.head<2>() - Eigen::Vector2f(0.f, kSpeed)).norm();
+      ++counted;
+    }
+  }
+  EXPECT_NEAR(tracker->obstacle(0).box.size().x(), 0.5f, 1e-3f);  // the step did happen
+  return {error_sum / static_cast<float>(counted), tracker->obstacle(0).box.center().x()};
+}
+
+TEST(TrackerSize, SizeStepIsNotReadAsMotion) {
+  const auto [with, x_with] = velocity_error_after_a_size_step(true);
+  const auto [without, x_without] = velocity_error_after_a_size_step(false);
+  EXPECT_LT(with, 0.01f);
+  EXPECT_GT(without, 5.f * with + 0.02f);  // the old behaviour: the 0.15 m step becomes speed
+  // Either way the centre ends at the true 4.0 m: the compensation moves the reference, it does
+  // not keep the old bias.
+  EXPECT_NEAR(x_with, 4.f, 0.01f);
+  EXPECT_NEAR(x_without, 4.f, 0.02f);
 }
 
 // An elongated box (a 2 m wall piece seen face on) is not round: its missing depth is unknown, so

@@ -35,6 +35,10 @@ class HistoryRing {
     if (count_ < length) ++count_;
   }
   std::size_t size() const noexcept { return count_; }
+  /// Adds `d` to every stored value (a change of reference, e.g. a shifted bias correction).
+  void add_to_all(const T& d) noexcept {
+    for (std::size_t age = 0; age < count_; ++age) data_[(head_ + N - 1 - age) % N] += d;
+  }
   /// The value pushed `age` pushes ago (age < size()).
   const T& at_age(std::size_t age) const noexcept { return data_[(head_ + N - 1 - age) % N]; }
 
@@ -105,6 +109,17 @@ struct TrackerConfig {
   /// by up to 5 cm with a three-frame period (docs/tracker.md, "Measurement"). No choice
   /// to validate: both are boxes of the same detection.
   bool measure_raw_box = true;
+  /// Keep a step of the frozen size from reading as motion. The near-surface bias correction
+  /// moves a detection's centre away from the camera by half the depth the box misses, which
+  /// depends on the estimated full size; when the size is frozen or raised (`size_fix_growth`)
+  /// every corrected centre from then on moves by up to half the step although the obstacle did
+  /// not (env_a: 0.18 -> 0.33 -> 0.47 m, 7 cm jumps, 0.3-0.4 m/s velocity error for half a
+  /// second). With this on, the first detection corrected with the new size is also corrected
+  /// with the previous one, and the filter's position, the position history and the last
+  /// measured position move by the difference before the update (docs/tracker.md, "part 3").
+  /// The per-frame footprint of a track whose size is not frozen yet is left alone: it is
+  /// detection noise, not a re-estimate. No value to validate.
+  bool compensate_size_steps = true;
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -171,6 +186,7 @@ class Tracker {
     Stamp last_measured_stamp = 0;
     float z_center = 0.f;
     Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
+    Eigen::Vector3f corrected_with = Eigen::Vector3f::Zero();  // size behind the last correction
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
     std::size_t in_view_frames = 0;
     std::size_t dynamic_streak = 0;  // consecutive dynamic votes on consecutive frames

@@ -187,6 +187,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.early_displacement_frames),
       DYNAMAP_PARAM(tracker.size_fix_growth),
       DYNAMAP_PARAM(tracker.measure_raw_box),
+      DYNAMAP_PARAM(tracker.compensate_size_steps),
       DYNAMAP_PARAM(cleaner.frames),
       DYNAMAP_PARAM(cleaner.inflation),
       DYNAMAP_PARAM(cleaner.z_margin),
