@@ -188,6 +188,8 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.size_fix_growth),
       DYNAMAP_PARAM(tracker.measure_raw_box),
       DYNAMAP_PARAM(tracker.compensate_size_steps),
+      DYNAMAP_PARAM(tracker.measure_cut_from_visible_edge),
+      DYNAMAP_PARAM(tracker.occluder_adjacency_px),
       DYNAMAP_PARAM(cleaner.frames),
       DYNAMAP_PARAM(cleaner.inflation),
       DYNAMAP_PARAM(cleaner.z_margin),
