@@ -732,6 +732,9 @@ TEST(TrackerRobustness, BadConfigIsRefused) {
   c = TrackerConfig{};
   c.max_round_footprint = -1.f;
   EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  c = TrackerConfig{};
+  c.occluder_adjacency_px = -1;
+  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
   EXPECT_EQ(tracker.init(TrackerConfig{}), Status::kOk);
 }
 

@@ -129,8 +129,11 @@ struct TrackerConfig {
   /// the cut (env_a: 0.2 m over 1.5 s, 0.2-0.4 m/s velocity error). The width estimate is the
   /// mean footprint of the track's uncut, in-view frames within `size_fix_max_depth` (or the
   /// frozen size, if larger); without one, and for boxes longer than `max_round_footprint`,
-  /// the detection is measured as before.
-  bool measure_cut_from_visible_edge = true;
+  /// the detection is measured as before. A change of this model (a cut starts or ends, the
+  /// width changes) shifts the track's reference like a size step. Off by default: env_a seed 1
+  /// velocity 0.098 -> 0.088 m/s, but seed 2 unchanged and env_b seed 1 0.029 -> 0.031
+  /// (docs/tracker.md, "part 3").
+  bool measure_cut_from_visible_edge = false;
   /// Image columns between a detection's edge and a nearer detection's box for the nearer one to
   /// count as cutting that edge (`measure_cut_from_visible_edge`). At least 0.
   int occluder_adjacency_px = 3;
