@@ -808,24 +808,35 @@ TEST(TrackerMeasurement, BadRawBoxIsRefusedAndChangesNothing) {
 }
 
 TEST(TrackerRobustness, NoHeapAllocationPerFrame) {
-  auto tracker = make_tracker();
-  std::vector<Detection> dets;
-  for (std::size_t i = 0; i < kMaxDetections; ++i) {
-    dets.push_back(detection({4.f + 1.5f * (i % 8), 1.5f * (i / 8), 0.85f}));
-  }
-  Stamp stamp = 0;
-  test::AllocationGuard guard;
-  for (int f = 0; f < 60; ++f) {
-    for (std::size_t i = 0; i < dets.size(); i += 2) {
-      dets[i].box.min.y() += 0.03f;
-      dets[i].box.max.y() += 0.03f;
-      dets[i].raw_box = dets[i].box;  // the tracker measures the raw box by default
+  for (const bool cut_edges : {false, true}) {  // the optional cut-edge measurement too
+    TrackerConfig config;
+    config.measure_cut_from_visible_edge = cut_edges;
+    auto tracker = make_tracker(config);
+    std::vector<Detection> dets;
+    for (std::size_t i = 0; i < kMaxDetections; ++i) {
+      // Image boxes side by side; the nearest column is cut by the right border now and then.
+      const int u0 = static_cast<int>(40 * (i % 16));
+      const ImageBox image{u0, 100, u0 + 30, 400};
+      dets.push_back(detection({4.f + 1.5f * (i % 8), 1.5f * (i / 8), 0.85f}, kPerson, image));
     }
-    const std::size_t n = f % 10 == 5 ? dets.size() / 2 : dets.size();  // some coast
-    ASSERT_EQ(tracker->update(dets.data(), n, camera_at(), stamp += kFrame), Status::kOk);
+    Stamp stamp = 0;
+    test::AllocationGuard guard;
+    for (int f = 0; f < 60; ++f) {
+      for (std::size_t i = 0; i < dets.size(); i += 2) {
+        dets[i].box.min.y() += 0.03f;
+        dets[i].box.max.y() += 0.03f;
+        dets[i].raw_box = dets[i].box;  // the tracker measures the raw box by default
+      }
+      for (std::size_t i = 0; i < dets.size(); i += 8) {  // cut on every third frame
+        dets[i].image_box.u1 = f % 3 == 0 ? 639 : dets[i].image_box.u0 + 30;
+        dets[i].raw_box.min.x() = dets[i].box.min.x() + (f % 3 == 0 ? 0.2f : 0.f);
+      }
+      const std::size_t n = f % 10 == 5 ? dets.size() / 2 : dets.size();  // some coast
+      ASSERT_EQ(tracker->update(dets.data(), n, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    EXPECT_EQ(guard.allocations(), 0u);
+    EXPECT_EQ(tracker->size(), kMaxTracks);
   }
-  EXPECT_EQ(guard.allocations(), 0u);
-  EXPECT_EQ(tracker->size(), kMaxTracks);
 }
 
 }  // namespace
