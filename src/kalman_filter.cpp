@@ -244,6 +244,19 @@ Status TurnImmKalman::update(const Eigen::Vector2f& z, float noise_scale) noexce
   return Status::kOk;
 }
 
+void TurnImmKalman::shift_position(const Eigen::Vector2f& d) noexcept {
+  for (int m = 0; m < kModes; ++m) xm_[m].head<2>() += d;
+  x_.head<2>() += d;
+}
+
+void TrackFilter::shift_position(const Eigen::Vector2f& d) noexcept {
+  if (model_ == MotionModel::kTurnImm) {
+    imm_.shift_position(d);
+  } else {
+    cv_.shift_position(d);
+  }
+}
+
 void TrackFilter::reset(const Eigen::Vector4f& state, const KalmanConfig& config) noexcept {
   model_ = config.model;
   if (model_ == MotionModel::kTurnImm) {

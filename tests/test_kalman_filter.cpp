@@ -383,6 +383,33 @@ TEST(TrackFilter, ConstantVelocityModelIsTheOriginalFilter) {
   EXPECT_EQ(t.velocity(), k.velocity());
 }
 
+// shift_position moves the reference point only: the same filter fed positions offset by d after
+// the shift ends where an unshifted one fed the unshifted positions does, plus d, with the same
+// velocity and covariance (both models).
+TEST(TrackFilter, ShiftPositionMovesTheReferenceNotTheMotion) {
+  for (const MotionModel model : {MotionModel::kConstantVelocity, MotionModel::kTurnImm}) {
+    KalmanConfig config;
+    config.model = model;
+    TrackFilter a, b;
+    a.reset(Eigen::Vector4f(1.f, 2.f, 0.f, 0.f), config);
+    b.reset(Eigen::Vector4f(1.f, 2.f, 0.f, 0.f), config);
+    const Eigen::Vector2f d(0.15f, -0.05f);
+    const float dt = 1.f / 30.f;
+    for (int f = 1; f <= 40; ++f) {
+      const Eigen::Vector2f p(1.f + 0.8f * dt * f, 2.f + 0.3f * dt * f);
+      const Eigen::Vector2f v(0.8f, 0.3f);
+      if (f == 20) b.shift_position(d);
+      const Eigen::Vector2f pb = f >= 20 ? Eigen::Vector2f(p + d) : p;
+      ASSERT_EQ(a.predict(dt), Status::kOk);
+      ASSERT_EQ(b.predict(dt), Status::kOk);
+      ASSERT_EQ(a.update(Eigen::Vector4f(p.x(), p.y(), v.x(), v.y())), Status::kOk);
+      ASSERT_EQ(b.update(Eigen::Vector4f(pb.x(), pb.y(), v.x(), v.y())), Status::kOk);
+    }
+    EXPECT_LT((b.position() - a.position() - d).norm(), 1e-4f);
+    EXPECT_LT((b.velocity() - a.velocity()).norm(), 1e-4f);
+  }
+}
+
 TEST(TurnImmKalman, NoHeapAllocation) {
   TurnImmKalman f;
   test::AllocationGuard guard;

@@ -6,6 +6,7 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "alloc_guard.hpp"
@@ -454,6 +455,100 @@ TEST(TrackerSize, SizeGrowsAfterAnOcclusion) {
   }
 }
 
+// A walker (0.5 m cylinder) crosses the view at 1 m/s, 4 m ahead, its near face x in
+// [3.75, 3.95]. For its first 10 frames only 0.2 m of its width is visible (it steps out from
+// behind an occluder), so the size is frozen at 0.2 m; 10 frames in full view later size growth
+// raises it to 0.5 m and the bias-corrected centre jumps 0.15 m away from the camera (as env_a's
+// walker 4 did, 0.18 -> 0.33 -> 0.47 m). Returns the mean velocity error over the 30 frames after
+// the step, and the last reported x centre.
+std::pair<float, float> velocity_error_after_a_size_step(bool compensate) {
+  TrackerConfig config;
+  config.compensate_size_steps = compensate;
+  auto tracker = make_tracker(config);
+  constexpr float kSpeed = 1.f, kDt = 1.f / 30.f;
+  Stamp stamp = 0;
+  float error_sum = 0.f;
+  int counted = 0;
+  for (int f = 0; f < 50; ++f) {
+    const float y = -0.8f + kSpeed * kDt * static_cast<float>(f);
+    const float width = f < 10 ? 0.2f : 0.5f;
+    const Detection d = detection({3.85f, y, 0.85f}, Eigen::Vector3f(0.2f, width, 1.7f));
+    EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    EXPECT_EQ(tracker->size(), 1u);
+    if (f >= 20) {
+      error_sum += (tracker->obstacle(0).velocity.head<2>() - Eigen::Vector2f(0.f, kSpeed)).norm();
+      ++counted;
+    }
+  }
+  EXPECT_NEAR(tracker->obstacle(0).box.size().x(), 0.5f, 1e-3f);  // the step did happen
+  return {error_sum / static_cast<float>(counted), tracker->obstacle(0).box.center().x()};
+}
+
+TEST(TrackerSize, SizeStepIsNotReadAsMotion) {
+  const auto [with, x_with] = velocity_error_after_a_size_step(true);
+  const auto [without, x_without] = velocity_error_after_a_size_step(false);
+  EXPECT_LT(with, 0.01f);
+  EXPECT_GT(without, 5.f * with + 0.02f);  // the old behaviour: the 0.15 m step becomes speed
+  // Either way the centre ends at the true 4.0 m: the compensation moves the reference, it does
+  // not keep the old bias.
+  EXPECT_NEAR(x_with, 4.f, 0.01f);
+  EXPECT_NEAR(x_without, 4.f, 0.02f);
+}
+
+// A walker (0.5 m cylinder, near face x in [3.75, 3.95]) walks at 0.6 m/s along -y, which is
+// image-right for a camera at the origin looking along +x. After 30 frames in full view its
+// right edge is cut, for 20 frames, at y = -0.05 (by the image border, or by a nearer crate whose
+// image box reaches over that edge), so the visible part's centre moves at half the speed. Returns
+// the mean velocity error over the last 15 cut frames.
+float velocity_error_while_cut(bool measure_cut, bool by_occluder) {
+  TrackerConfig config;
+  config.measure_cut_from_visible_edge = measure_cut;
+  auto tracker = make_tracker(config);
+  Pose camera;  // optical frame: x right = map -y, y down = map -z, z forward = map +x
+  Eigen::Matrix3f r;
+  r << 0.f, 0.f, 1.f, -1.f, 0.f, 0.f, 0.f, -1.f, 0.f;
+  camera.rotation = Eigen::Quaternionf(r).normalized();
+  constexpr float kSpeed = 0.6f, kDt = 1.f / 30.f, kCutY = -0.05f;
+  Stamp stamp = 0;
+  float error_sum = 0.f;
+  int counted = 0;
+  for (int f = 0; f < 50; ++f) {
+    const float y = 0.8f - kSpeed * kDt * static_cast<float>(f);
+    const bool cut = f >= 30;
+    const float y_min = cut ? std::max(y - 0.25f, kCutY) : y - 0.25f;
+    Box3 seen;
+    seen.min = Eigen::Vector3f(3.75f, y_min, 0.f);
+    seen.max = Eigen::Vector3f(3.95f, y + 0.25f, 1.7f);
+    std::array<Detection, 2> d;
+    d[0] = detection(
+        seen.center(), seen.size(),
+        cut && !by_occluder ? ImageBox{520, 100, 639, 400} : ImageBox{300, 100, 420, 400});
+    d[0].near_depth = 3.75f;
+    // The crate at 2 m: its image box starts just inside the walker's right edge once it cuts it.
+    d[1] = detection({2.f, -0.6f, 0.4f}, Eigen::Vector3f(0.4f, 0.4f, 0.8f),
+                     cut ? ImageBox{418, 250, 500, 479} : ImageBox{480, 250, 560, 479});
+    d[1].near_depth = 1.8f;
+    const std::size_t count = by_occluder ? 2 : 1;
+    EXPECT_EQ(tracker->update(d.data(), count, camera, stamp += kFrame), Status::kOk);
+    const TrackedObstacle* walker = find_id(*tracker, 1);
+    EXPECT_NE(walker, nullptr);
+    if (walker != nullptr && f >= 35) {
+      error_sum += (walker->velocity.head<2>() - Eigen::Vector2f(0.f, -kSpeed)).norm();
+      ++counted;
+    }
+  }
+  return counted > 0 ? error_sum / static_cast<float>(counted) : 1e9f;
+}
+
+TEST(TrackerMeasurement, CutDetectionIsMeasuredFromItsVisibleEdge) {
+  for (const bool by_occluder : {false, true}) {
+    const float with = velocity_error_while_cut(true, by_occluder);
+    const float without = velocity_error_while_cut(false, by_occluder);
+    EXPECT_LT(with, 0.01f) << "occluder " << by_occluder;
+    EXPECT_GT(without, 0.2f) << "occluder " << by_occluder;  // the visible centre's half speed
+  }
+}
+
 // An elongated box (a 2 m wall piece seen face on) is not round: its missing depth is unknown, so
 // the tracker keeps the visible face's centre instead of pushing it 1 m behind the wall.
 TEST(TrackerBias, ElongatedBoxKeepsItsCentre) {
@@ -645,6 +740,9 @@ TEST(TrackerRobustness, BadConfigIsRefused) {
   c = TrackerConfig{};
   c.max_round_footprint = -1.f;
   EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  c = TrackerConfig{};
+  c.occluder_adjacency_px = -1;
+  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
   EXPECT_EQ(tracker.init(TrackerConfig{}), Status::kOk);
 }
 
@@ -718,24 +816,35 @@ TEST(TrackerMeasurement, BadRawBoxIsRefusedAndChangesNothing) {
 }
 
 TEST(TrackerRobustness, NoHeapAllocationPerFrame) {
-  auto tracker = make_tracker();
-  std::vector<Detection> dets;
-  for (std::size_t i = 0; i < kMaxDetections; ++i) {
-    dets.push_back(detection({4.f + 1.5f * (i % 8), 1.5f * (i / 8), 0.85f}));
-  }
-  Stamp stamp = 0;
-  test::AllocationGuard guard;
-  for (int f = 0; f < 60; ++f) {
-    for (std::size_t i = 0; i < dets.size(); i += 2) {
-      dets[i].box.min.y() += 0.03f;
-      dets[i].box.max.y() += 0.03f;
-      dets[i].raw_box = dets[i].box;  // the tracker measures the raw box by default
+  for (const bool cut_edges : {false, true}) {  // the optional cut-edge measurement too
+    TrackerConfig config;
+    config.measure_cut_from_visible_edge = cut_edges;
+    auto tracker = make_tracker(config);
+    std::vector<Detection> dets;
+    for (std::size_t i = 0; i < kMaxDetections; ++i) {
+      // Image boxes side by side; the nearest column is cut by the right border now and then.
+      const int u0 = static_cast<int>(40 * (i % 16));
+      const ImageBox image{u0, 100, u0 + 30, 400};
+      dets.push_back(detection({4.f + 1.5f * (i % 8), 1.5f * (i / 8), 0.85f}, kPerson, image));
     }
-    const std::size_t n = f % 10 == 5 ? dets.size() / 2 : dets.size();  // some coast
-    ASSERT_EQ(tracker->update(dets.data(), n, camera_at(), stamp += kFrame), Status::kOk);
+    Stamp stamp = 0;
+    test::AllocationGuard guard;
+    for (int f = 0; f < 60; ++f) {
+      for (std::size_t i = 0; i < dets.size(); i += 2) {
+        dets[i].box.min.y() += 0.03f;
+        dets[i].box.max.y() += 0.03f;
+        dets[i].raw_box = dets[i].box;  // the tracker measures the raw box by default
+      }
+      for (std::size_t i = 0; i < dets.size(); i += 8) {  // cut on every third frame
+        dets[i].image_box.u1 = f % 3 == 0 ? 639 : dets[i].image_box.u0 + 30;
+        dets[i].raw_box.min.x() = dets[i].box.min.x() + (f % 3 == 0 ? 0.2f : 0.f);
+      }
+      const std::size_t n = f % 10 == 5 ? dets.size() / 2 : dets.size();  // some coast
+      ASSERT_EQ(tracker->update(dets.data(), n, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    EXPECT_EQ(guard.allocations(), 0u);
+    EXPECT_EQ(tracker->size(), kMaxTracks);
   }
-  EXPECT_EQ(guard.allocations(), 0u);
-  EXPECT_EQ(tracker->size(), kMaxTracks);
 }
 
 }  // namespace

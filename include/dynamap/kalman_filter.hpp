@@ -92,6 +92,9 @@ class ConstantVelocityKalman {
   [[nodiscard]] Status update(const Eigen::Vector4f& z, float noise_scale = 1.f) noexcept;
   /// State X as predict(dt) would make it, without changing the filter.
   Eigen::Vector4f predicted(float dt) const noexcept;
+  /// Moves the position estimate by d (a change of the measurement's reference point); the
+  /// covariance is unchanged.
+  void shift_position(const Eigen::Vector2f& d) noexcept { x_.head<2>() += d; }
 
   const Eigen::Vector4f& state() const noexcept { return x_; }
   const Eigen::Matrix4f& covariance() const noexcept { return p_; }
@@ -123,6 +126,8 @@ class TurnImmKalman {
   /// Position update with R = noise_scale * r_position. kNonFinite (nothing changes) for a
   /// NaN/inf measurement, kInvalidArgument for noise_scale not positive and finite.
   [[nodiscard]] Status update(const Eigen::Vector2f& z, float noise_scale = 1.f) noexcept;
+  /// Moves the position estimate of both modes by d; covariances and mode probabilities unchanged.
+  void shift_position(const Eigen::Vector2f& d) noexcept;
 
   /// Combined (probability-weighted) estimate.
   const State& state() const noexcept { return x_; }
@@ -151,6 +156,8 @@ class TrackFilter {
   [[nodiscard]] Status predict(float dt) noexcept;
   /// z = [x, y, vx_meas, vy_meas]; the IMM uses the position only.
   [[nodiscard]] Status update(const Eigen::Vector4f& z, float noise_scale = 1.f) noexcept;
+  /// Moves the position estimate by d (finite), covariance unchanged.
+  void shift_position(const Eigen::Vector2f& d) noexcept;
   Eigen::Vector2f position() const noexcept;
   Eigen::Vector2f velocity() const noexcept;
   MotionModel model() const noexcept { return model_; }
