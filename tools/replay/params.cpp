@@ -4,6 +4,8 @@
 #include <functional>
 #include <sstream>
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
@@ -75,63 +77,33 @@ Param vector3_param(const char* key, Eigen::Vector3f* (*access)(PipelineConfig&)
   return p;
 }
 
-// tracker.kalman.model is an enum: spelled "cv" (the original filter) or "imm" in YAML.
-Param motion_model_param() {
+// An enum key, spelled out in YAML: `names` lists each accepted spelling with its value.
+template <typename E>
+Param enum_param(const char* key, E* (*access)(PipelineConfig&),
+                 std::vector<std::pair<std::string, E>> names) {
   Param p;
-  p.key = "tracker.kalman.model";
-  p.set = [](const YAML::Node& n, PipelineConfig& c) {
+  p.key = key;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    p.allowed += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i].first;
+  }
+  p.set = [access, names](const YAML::Node& n, PipelineConfig& c) {
     std::string v;
     if (!YAML::convert<std::string>::decode(n, v)) return false;
-    if (v == "cv") {
-      c.tracker.kalman.model = MotionModel::kConstantVelocity;
-    } else if (v == "imm") {
-      c.tracker.kalman.model = MotionModel::kTurnImm;
-    } else {
-      return false;
+    for (const auto& [name, value] : names) {
+      if (v == name) {
+        *access(c) = value;
+        return true;
+      }
     }
-    return true;
+    return false;
   };
-  p.get = [](const PipelineConfig& c) {
-    return std::string(c.tracker.kalman.model == MotionModel::kTurnImm ? "imm" : "cv");
-  };
-  return p;
-}
-
-// predictor.belief_update is an enum: "compound" (DESIGN.md §4.6), "choice_only" or
-// "last_choice" or "shifted_choice" (markov_predictor.hpp, BeliefUpdate).
-Param belief_update_param() {
-  Param p;
-  p.key = "predictor.belief_update";
-  p.set = [](const YAML::Node& n, PipelineConfig& c) {
-    std::string v;
-    if (!YAML::convert<std::string>::decode(n, v)) return false;
-    if (v == "compound") {
-      c.predictor.belief_update = BeliefUpdate::kCompound;
-    } else if (v == "choice_only") {
-      c.predictor.belief_update = BeliefUpdate::kChoiceOnly;
-    } else if (v == "last_choice") {
-      c.predictor.belief_update = BeliefUpdate::kLastChoice;
-    } else if (v == "shifted_choice") {
-      c.predictor.belief_update = BeliefUpdate::kShiftedChoice;
-    } else {
-      return false;
-    }
-    return true;
-  };
-  p.get = [](const PipelineConfig& c) {
-    switch (c.predictor.belief_update) {
-      case BeliefUpdate::kCompound:
-        return std::string("compound");
-      case BeliefUpdate::kChoiceOnly:
-        return std::string("choice_only");
-      case BeliefUpdate::kLastChoice:
-        return std::string("last_choice");
-      case BeliefUpdate::kShiftedChoice:
-        return std::string("shifted_choice");
+  p.get = [access, names](const PipelineConfig& c) {
+    const E value = *access(const_cast<PipelineConfig&>(c));
+    for (const auto& [name, v] : names) {
+      if (v == value) return name;
     }
     return std::string("invalid");
   };
-  p.allowed = "compound, choice_only, last_choice or shifted_choice";
   return p;
 }
 
@@ -185,7 +157,10 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.kalman.q_velocity),
       DYNAMAP_PARAM(tracker.kalman.r_position),
       DYNAMAP_PARAM(tracker.kalman.r_velocity),
-      motion_model_param(),
+      // "cv" is the original filter (DESIGN.md), "imm" adds the coordinated turn.
+      enum_param<MotionModel>(
+          "tracker.kalman.model", [](PipelineConfig& c) { return &c.tracker.kalman.model; },
+          {{"cv", MotionModel::kConstantVelocity}, {"imm", MotionModel::kTurnImm}}),
       DYNAMAP_PARAM(tracker.kalman.imm.q_accel_straight),
       DYNAMAP_PARAM(tracker.kalman.imm.q_accel_turn),
       DYNAMAP_PARAM(tracker.kalman.imm.q_turn_rate),
@@ -238,7 +213,13 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(predictor.straight_return),
       DYNAMAP_PARAM(predictor.unknown_weight),
       DYNAMAP_PARAM(predictor.choose_free),
-      belief_update_param(),
+      // DESIGN.md §4.6's update is "compound"; the others: markov_predictor.hpp, BeliefUpdate.
+      enum_param<BeliefUpdate>("predictor.belief_update",
+                               [](PipelineConfig& c) { return &c.predictor.belief_update; },
+                               {{"compound", BeliefUpdate::kCompound},
+                                {"choice_only", BeliefUpdate::kChoiceOnly},
+                                {"last_choice", BeliefUpdate::kLastChoice},
+                                {"shifted_choice", BeliefUpdate::kShiftedChoice}}),
       DYNAMAP_PARAM(predictor.depth_check.enabled),
       DYNAMAP_PARAM(predictor.depth_check.noise_margin),
       DYNAMAP_PARAM(predictor.depth_check.noise_quadratic),
