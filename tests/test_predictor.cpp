@@ -725,6 +725,19 @@ TEST(MarkovPredictor, TransitionMixesInTheInitialDistribution) {
               1e-12);  // a rejected config changed nothing
 }
 
+// Frames 0-9 of a walker heading +x at (3, -0.6) towards walls ahead and right with an opening
+// on its left: `mp` is initialised with `c` and its belief is moved onto the left turns.
+void approach_wall_with_left_opening(const MarkovPredictorConfig& c, MarkovPredictor& mp,
+                                     PathPrediction& out) {
+  BoxWorld w;
+  build_wall_with_left_opening(w);
+  ASSERT_EQ(mp.init(c), Status::kOk);
+  for (int f = 0; f < 10; ++f) {
+    const ObstacleState o = walker(3, -0.6f, 0.0f, 1.0f, 0.0f);
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+  }
+}
+
 TEST(MarkovPredictor, BeliefReturnsToStraightOnceTheMapNoLongerChooses) {
   // Frames 0-9: only left turns are free (walls ahead and right, opening on the left), so the
   // belief moves onto a left path. Then the walker is in open space, every path free: the plain
@@ -733,17 +746,11 @@ TEST(MarkovPredictor, BeliefReturnsToStraightOnceTheMapNoLongerChooses) {
   std::array<int, 2> frames_to_straight{};
   const std::array<float, 2> returns = {0.0f, 0.2f};
   for (std::size_t r = 0; r < 2; ++r) {
-    BoxWorld w;
-    build_wall_with_left_opening(w);
     MarkovPredictorConfig c = markov_config(5);
     c.straight_return = returns[r];
     MarkovPredictor mp;
-    ASSERT_EQ(mp.init(c), Status::kOk);
     PathPrediction out;
-    for (int f = 0; f < 10; ++f) {
-      const ObstacleState o = walker(3, -0.6f, 0.0f, 1.0f, 0.0f);
-      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
-    }
+    ASSERT_NO_FATAL_FAILURE(approach_wall_with_left_opening(c, mp, out));
     EXPECT_LT(out.chosen, 2u);  // a left turn
     BoxWorld open;
     frames_to_straight[r] = 100;
@@ -817,17 +824,11 @@ TEST(MarkovPredictor, ShiftedChoiceReturnsToStraightOnceTheTurnIsDone) {
   // kShiftedChoice nothing of the turn is left and the straight path is chosen at once; with
   // kLastChoice the choice stays on the turn (in the new velocity frame, a second turn).
   for (const BeliefUpdate mode : {BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
-    BoxWorld w;
-    build_wall_with_left_opening(w);
     MarkovPredictorConfig c = markov_config(5);
     c.belief_update = mode;
     MarkovPredictor mp;
-    ASSERT_EQ(mp.init(c), Status::kOk);
     PathPrediction out;
-    for (int f = 0; f < 10; ++f) {
-      const ObstacleState o = walker(3, -0.6f, 0.0f, 1.0f, 0.0f);
-      ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
-    }
+    ASSERT_NO_FATAL_FAILURE(approach_wall_with_left_opening(c, mp, out));
     const std::size_t turn = out.chosen;
     ASSERT_LT(turn, 2u);  // a left turn
     // Path i of l = 5 turns by max_heading_change * (1 - i / 2).

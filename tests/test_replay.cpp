@@ -177,21 +177,30 @@ TEST(Replay, NonSixteenBitPngNamesTheFile) {
   EXPECT_NE(r.output.find(first), std::string::npos) << r.output;
 }
 
+// Writes `yaml` to scratch_dir()/NAME.yaml and replays the short sequence with it (plus `options`).
+struct ParamsRun {
+  std::string file;
+  RunResult result;
+};
+ParamsRun replay_with_params(const std::string& name, const std::string& yaml,
+                             const std::string& options = "") {
+  const std::string file = scratch_dir() + name + ".yaml";
+  std::ofstream(file) << yaml;
+  return ParamsRun{file, run_replay(corridor_sequence() + " --out " + fresh_dir(name + "_out") +
+                                    " " + options + " --params " + file)};
+}
+
 TEST(Replay, UnknownParameterKeyNamesFileLineAndKey) {
-  const std::string params = scratch_dir() + "bad_params.yaml";
-  std::ofstream(params) << "map:\n  resolution: 0.1\n  resolutoin: 0.2\n";
-  const RunResult r =
-      run_replay(corridor_sequence() + " --out " + fresh_dir("p_out") + " --params " + params);
+  const auto [params, r] =
+      replay_with_params("bad_params", "map:\n  resolution: 0.1\n  resolutoin: 0.2\n");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find(params + ":3"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("map.resolutoin"), std::string::npos) << r.output;
 }
 
 TEST(Replay, BadParameterValueIsRefused) {
-  const std::string params = scratch_dir() + "bad_value.yaml";
-  std::ofstream(params) << "tracker:\n  overlap_threshold: 3.5\n";
   const RunResult r =
-      run_replay(corridor_sequence() + " --out " + fresh_dir("v_out") + " --params " + params);
+      replay_with_params("bad_value", "tracker:\n  overlap_threshold: 3.5\n").result;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("tracker.overlap_threshold"), std::string::npos) << r.output;
 }
@@ -199,14 +208,11 @@ TEST(Replay, BadParameterValueIsRefused) {
 // The motion model is spelled "cv" or "imm"; anything else, and IMM noises that are not
 // positive, are refused before any frame is replayed.
 TEST(Replay, BadMotionModelIsRefused) {
-  const std::string params = scratch_dir() + "bad_model.yaml";
-  std::ofstream(params) << "tracker:\n  kalman:\n    model: spline\n";
-  RunResult r =
-      run_replay(corridor_sequence() + " --out " + fresh_dir("m_out") + " --params " + params);
+  RunResult r = replay_with_params("bad_model", "tracker:\n  kalman:\n    model: spline\n").result;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("bad value for 'tracker.kalman.model'"), std::string::npos) << r.output;
-  std::ofstream(params) << "tracker:\n  kalman:\n    imm:\n      q_turn_rate: -1\n";
-  r = run_replay(corridor_sequence() + " --out " + fresh_dir("m_out2") + " --params " + params);
+  r = replay_with_params("bad_imm", "tracker:\n  kalman:\n    imm:\n      q_turn_rate: -1\n")
+          .result;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("tracker"), std::string::npos) << r.output;
 }
@@ -214,10 +220,8 @@ TEST(Replay, BadMotionModelIsRefused) {
 // The belief update is spelled compound, choice_only, last_choice or shifted_choice; the error
 // names the key and the accepted spellings.
 TEST(Replay, BadBeliefUpdateIsRefused) {
-  const std::string params = scratch_dir() + "bad_belief.yaml";
-  std::ofstream(params) << "predictor:\n  belief_update: choice-only\n";
   const RunResult r =
-      run_replay(corridor_sequence() + " --out " + fresh_dir("bu_out") + " --params " + params);
+      replay_with_params("bad_belief", "predictor:\n  belief_update: choice-only\n").result;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("bad value for 'predictor.belief_update': 'choice-only'"),
             std::string::npos)
@@ -230,29 +234,30 @@ TEST(Replay, BadBeliefUpdateIsRefused) {
 // The size limits are 3-vectors, written as YAML lists: three numbers are taken, anything else
 // (two numbers, a scalar, a word, limits out of order) is refused with the file, line and key.
 TEST(Replay, SizeLimitListsAreValidated) {
-  const std::string params = scratch_dir() + "size_limits.yaml";
-  std::ofstream(params) << "tracker:\n  continuity:\n    max_size: [2.5, 2.5, 2.4]\n";
-  RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("sl_out") +
-                           " --max-frames 1 --quiet --params " + params);
+  RunResult r =
+      replay_with_params("size_limits", "tracker:\n  continuity:\n    max_size: [2.5, 2.5, 2.4]\n",
+                         "--max-frames 1 --quiet")
+          .result;
   EXPECT_EQ(r.exit_code, 0) << r.output;
   for (const char* bad : {"[2.5, 2.4]", "2.4", "[1, 1, tall]", "[0.1, 0.1, -1]"}) {
-    std::ofstream(params) << "tracker:\n  continuity:\n    check_size: true\n    max_size: " << bad
-                          << "\n";
-    r = run_replay(corridor_sequence() + " --out " + fresh_dir("sl_out2") + " --params " + params);
+    r = replay_with_params(
+            "bad_size_limits",
+            std::string("tracker:\n  continuity:\n    check_size: true\n    max_size: ") + bad +
+                "\n")
+            .result;
     EXPECT_NE(r.exit_code, 0) << bad;
     EXPECT_NE(r.output.find("tracker.continuity"), std::string::npos) << bad << ": " << r.output;
   }
-  std::ofstream(params) << "tracker:\n  continuity:\n    max_size: [2.5, 2.4]\n";
-  r = run_replay(corridor_sequence() + " --out " + fresh_dir("sl_out3") + " --params " + params);
+  const auto [params, short_list] =
+      replay_with_params("short_size_list", "tracker:\n  continuity:\n    max_size: [2.5, 2.4]\n");
+  r = short_list;
   EXPECT_NE(r.output.find(params + ":3"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("a list of three numbers"), std::string::npos) << r.output;
 }
 
 TEST(Replay, NegativeEarlyStopCountIsRefused) {
-  const std::string params = scratch_dir() + "bad_early_stop.yaml";
-  std::ofstream(params) << "map:\n  free_ray_early_stop: -3\n";
   const RunResult r =
-      run_replay(corridor_sequence() + " --out " + fresh_dir("es_out") + " --params " + params);
+      replay_with_params("bad_early_stop", "map:\n  free_ray_early_stop: -3\n").result;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("map.free_ray_early_stop"), std::string::npos) << r.output;
 }
