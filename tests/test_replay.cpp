@@ -3,12 +3,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "common/png_io.hpp"
 #include "common/text_io.hpp"
 #include "eval/metrics.hpp"
 #include "sim/scene.hpp"
@@ -130,17 +133,28 @@ TEST(Replay, MissingOutOptionPrintsUsage) {
   EXPECT_NE(r.output.find("usage"), std::string::npos) << r.output;
 }
 
-// Copies the first frames of the corridor into a new sequence directory we can break.
-std::string small_copy(const std::string& name) {
+// Copies the first `frames` frames of the corridor into a new sequence directory we can break.
+std::string small_copy(const std::string& name, int frames = 3) {
   const std::string d = fresh_dir(name);
   const std::string src = corridor_sequence();
   const std::string cmd = "mkdir -p '" + d + "/depth' && cp '" + src + "/camera.txt' '" + src +
-                          "/groundtruth.txt' '" + d + "/' && head -n 6 '" + src +
-                          "/depth.txt' > '" + d + "/depth.txt' && for f in $(tail -n +1 '" + d +
-                          "/depth.txt' | grep -v '^#' | awk '{print $2}'); do cp '" + src +
-                          "/'$f '" + d + "/'$f; done";
+                          "/groundtruth.txt' '" + d + "/' && grep -v '^#' '" + src +
+                          "/depth.txt' | head -n " + std::to_string(frames) + " > '" + d +
+                          "/depth.txt' && for f in $(awk '{print $2}' '" + d +
+                          "/depth.txt'); do cp '" + src + "/'$f '" + d + "/'$f; done";
   EXPECT_EQ(std::system(cmd.c_str()), 0);
   return d;
+}
+
+// The depth files a sequence directory lists, in order.
+std::vector<std::string> listed_depth_files(const std::string& seq) {
+  std::ifstream list(seq + "/depth.txt");
+  std::vector<std::string> files;
+  std::string line;
+  while (std::getline(list, line)) {
+    if (!line.empty() && line[0] != '#') files.push_back(line.substr(line.find(' ') + 1));
+  }
+  return files;
 }
 
 TEST(Replay, BadLineInDepthListNamesFileAndLine) {
@@ -151,30 +165,111 @@ TEST(Replay, BadLineInDepthListNamesFileAndLine) {
   EXPECT_NE(r.output.find("depth.txt:"), std::string::npos) << r.output;
 }
 
-TEST(Replay, NonSixteenBitPngNamesTheFile) {
-  const std::string d = small_copy("png8");
-  // Overwrite the first listed depth image with an 8-bit PNG (the eval picture writer's kind).
-  std::ifstream list(d + "/depth.txt");
-  std::string line, first;
-  while (std::getline(list, line)) {
-    if (!line.empty() && line[0] != '#') {
-      first = line.substr(line.find(' ') + 1);
-      break;
-    }
+// A valid 1x1 8-bit grayscale PNG.
+constexpr unsigned char kPng8[] = {
+    0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48,
+    0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x00, 0x00, 0x00,
+    0x00, 0x3a, 0x7e, 0x9b, 0x55, 0x00, 0x00, 0x00, 0x0a, 0x49, 0x44, 0x41, 0x54, 0x78,
+    0x9c, 0x63, 0x60, 0x00, 0x00, 0x00, 0x02, 0x00, 0x01, 0x48, 0xaf, 0xa4, 0x71, 0x00,
+    0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+
+// The gaps of published datasets, one of each kind: a listed file that is missing, a truncated
+// PNG, an 8-bit PNG and a 16-bit PNG of the wrong size, among six good frames.
+struct GappySequence {
+  std::string dir;
+  std::vector<std::string> broken;  // missing, truncated, 8-bit, wrong size
+};
+GappySequence gappy_sequence(const std::string& name) {
+  GappySequence g{small_copy(name, 10), {}};
+  const std::vector<std::string> files = listed_depth_files(g.dir);
+  EXPECT_EQ(files.size(), 10u);
+  g.broken = {files[1], files[3], files[5], files[7]};
+  EXPECT_EQ(std::remove((g.dir + "/" + files[1]).c_str()), 0);
+  {
+    std::ifstream in(g.dir + "/" + files[3], std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    std::ofstream(g.dir + "/" + files[3], std::ios::binary | std::ios::trunc)
+        << bytes.substr(0, bytes.size() / 3);
   }
-  ASSERT_FALSE(first.empty());
-  // A valid 1x1 8-bit grayscale PNG.
-  static const unsigned char png8[] = {
-      0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48,
-      0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x00, 0x00, 0x00,
-      0x00, 0x3a, 0x7e, 0x9b, 0x55, 0x00, 0x00, 0x00, 0x0a, 0x49, 0x44, 0x41, 0x54, 0x78,
-      0x9c, 0x63, 0x60, 0x00, 0x00, 0x00, 0x02, 0x00, 0x01, 0x48, 0xaf, 0xa4, 0x71, 0x00,
-      0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
-  std::ofstream(d + "/" + first, std::ios::binary)
-      .write(reinterpret_cast<const char*>(png8), sizeof(png8));
-  const RunResult r = run_replay(d + " --out " + fresh_dir("png8_out"));
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.output.find(first), std::string::npos) << r.output;
+  std::ofstream(g.dir + "/" + files[5], std::ios::binary | std::ios::trunc)
+      .write(reinterpret_cast<const char*>(kPng8), sizeof(kPng8));
+  Image16 small;
+  small.width = 320;
+  small.height = 240;
+  small.pixels.assign(320 * 240, 2000);
+  write_png16(g.dir + "/" + files[7], small);
+  return g;
+}
+
+TEST(Replay, ListedButMissingOrBrokenDepthFilesAreSkippedCountedAndNamed) {
+  const GappySequence g = gappy_sequence("gaps");
+  const std::string out = fresh_dir("gaps_out");
+  const RunResult r = run_replay(g.dir + " --out " + out + " --quiet");
+  // Completed with gaps: status 3, the six good frames replayed, each broken file named once.
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("4 depth files skipped, 6 processed"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("1 missing, 2 unreadable, 1 wrong size"), std::string::npos) << r.output;
+  for (const std::string& f : g.broken) {
+    EXPECT_NE(r.output.find(f), std::string::npos) << f << "\n" << r.output;
+  }
+  EXPECT_NE(r.output.find("320x240 but camera.txt says 640x480"), std::string::npos) << r.output;
+  // Only the good frames are in the outputs.
+  std::ifstream timing(join_path(out, "timing.csv"));
+  std::string line;
+  std::size_t rows = 0;
+  while (std::getline(timing, line)) ++rows;
+  EXPECT_EQ(rows, 1u + 6u);
+  EXPECT_TRUE(file_exists(join_path(out, "detections.csv")));
+}
+
+TEST(Replay, StrictStopsAtTheFirstBrokenDepthFileAndNamesIt) {
+  const GappySequence g = gappy_sequence("gaps_strict");
+  const RunResult r = run_replay(g.dir + " --out " + fresh_dir("gaps_strict_out") + " --strict");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find(g.broken[0] + ": listed in depth.txt but missing"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find(g.broken[1]), std::string::npos) << r.output;  // it stopped there
+}
+
+TEST(Replay, NoUsableDepthFileIsAnError) {
+  const std::string d = small_copy("all_missing", 2);
+  for (const std::string& f : listed_depth_files(d)) std::remove((d + "/" + f).c_str());
+  const RunResult r = run_replay(d + " --out " + fresh_dir("all_missing_out") + " --quiet");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("none of the 2 frames could be replayed"), std::string::npos) << r.output;
+}
+
+TEST(Replay, UnknownPoseConventionIsAUsageError) {
+  const RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("p") + " --poses x");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--poses takes tum or bonn"), std::string::npos) << r.output;
+}
+
+// The real Bonn crowd data (shared with the project's developers and CI, not in the repository).
+const char* bonn_crowd_dir() {
+  return DYNAMAP_SHARED_DATA_DIR "/bonn_crowd";
+}
+
+TEST(Replay, RealBonnSequenceReplaysWithItsPublishedGapsAndPoses) {
+  if (!file_exists(std::string(bonn_crowd_dir()) + "/depth.txt")) {
+    GTEST_SKIP() << bonn_crowd_dir() << " not found: real-data test skipped";
+  }
+  // The first 219 frames with a pose hold one of the published gaps (depth.txt line 208); the
+  // very first listed file is missing too, but it has no pose, so it is counted there.
+  for (const char* poses : {"tum", "bonn"}) {
+    const std::string out = fresh_dir(std::string("bonn_out_") + poses);
+    const RunResult r = run_replay(std::string(bonn_crowd_dir()) + " --out " + out +
+                                   " --quiet --max-frames 219 --poses " + poses);
+    EXPECT_EQ(r.exit_code, 3) << r.output;
+    EXPECT_NE(r.output.find("620 listed, 3 without pose (skipped), 1 depth files skipped, 218 "
+                            "processed, 0 rejected"),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("depth/1548339826.76234.png: listed in depth.txt but missing"),
+              std::string::npos)
+        << r.output;
+  }
 }
 
 // Writes `yaml` to scratch_dir()/NAME.yaml and replays the short sequence with it (plus `options`).

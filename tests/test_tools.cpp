@@ -226,6 +226,77 @@ TEST(SequenceReader, DepthImageOfWrongKindIsAnErrorNamingTheFile) {
   expect_error([&] { (void)load_depth(seq, seq.frames[1]); }, {"depth/c.png", "10x10"});
 }
 
+TEST(SequenceReader, TryLoadDepthNamesTheProblemWithoutThrowing) {
+  TempDir dir;
+  write_small_sequence(dir);
+  fs::create_directory(dir / "depth");
+  Image16 small;
+  small.width = 10;
+  small.height = 10;
+  small.pixels.assign(100, 1);
+  write_png16(dir / "depth/c.png", small);
+  write_file(dir / "depth/b.png", "\x89PNG\r\n");  // truncated after the signature's start
+  const Sequence seq = read_sequence(dir.str());
+  Image16 img;
+  std::string message;
+  EXPECT_EQ(try_load_depth(seq, seq.frames[0], &img, &message), DepthProblem::kUnreadable);
+  EXPECT_NE(message.find("depth/b.png"), std::string::npos) << message;
+  EXPECT_EQ(try_load_depth(seq, seq.frames[1], &img, &message), DepthProblem::kWrongSize);
+  EXPECT_NE(message.find("10x10"), std::string::npos) << message;
+  fs::remove(dir / "depth/c.png");
+  EXPECT_EQ(try_load_depth(seq, seq.frames[1], &img, &message), DepthProblem::kMissing);
+  EXPECT_NE(message.find("depth/c.png: listed in depth.txt but missing"), std::string::npos)
+      << message;
+}
+
+// Bonn RGB-D Dynamic's published marker poses, converted, are the optical-frame poses that the
+// shared bonn_crowd folder ships in groundtruth.txt (converted there with the same formula by an
+// independent script) and a z-up world with the floor below the camera.
+TEST(SequenceReader, BonnMarkerPosesConvertToOpticalPosesInAZUpWorld) {
+  const std::string bonn = DYNAMAP_SHARED_DATA_DIR "/bonn_crowd";
+  if (!file_exists(bonn + "/groundtruth_bonn.txt")) {
+    GTEST_SKIP() << bonn << " not found: real-data test skipped";
+  }
+  const auto published = read_groundtruth(bonn + "/groundtruth_bonn.txt");
+  const auto optical = read_groundtruth(bonn + "/groundtruth.txt");
+  ASSERT_EQ(published.size(), optical.size());
+  ASSERT_GT(published.size(), 100u);
+  double worst_translation = 0.0, worst_angle = 0.0;
+  for (std::size_t i = 0; i < published.size(); ++i) {
+    ASSERT_EQ(published[i].stamp, optical[i].stamp);
+    const PoseD p = bonn_marker_to_optical(published[i].pose);
+    worst_translation =
+        std::max(worst_translation, (p.translation - optical[i].pose.translation).norm());
+    worst_angle = std::max(worst_angle, p.rotation.angularDistance(optical[i].pose.rotation));
+  }
+  EXPECT_LT(worst_translation, 1e-5);  // the shipped file has 6 decimals
+  EXPECT_LT(worst_angle, 1e-5);
+  // read_sequence with the Bonn convention gives the same poses and a z-up camera model.
+  SequenceReadOptions o;
+  o.poses = PoseConvention::kBonn;
+  const Sequence seq = read_sequence(bonn, o);
+  EXPECT_NE(seq.pose_file.find("groundtruth_bonn.txt"), std::string::npos);
+  EXPECT_EQ(seq.camera.world_z_up, 1);
+  ASSERT_FALSE(seq.frames.empty());
+  // A handheld camera about 1.4 m above the floor, looking roughly level.
+  EXPECT_NEAR(seq.frames[0].pose.translation.z(), 1.45, 0.3);
+  const Eigen::Vector3d down = seq.frames[0].pose.rotation * Eigen::Vector3d::UnitY();
+  EXPECT_LT(down.z(), -0.8);
+}
+
+TEST(SequenceReader, BonnConventionWithoutCameraFileUsesTheBonnCamera) {
+  TempDir dir;
+  write_small_sequence(dir);
+  fs::remove(dir / "camera.txt");
+  SequenceReadOptions o;
+  o.poses = PoseConvention::kBonn;
+  const Sequence seq = read_sequence(dir.str(), o);
+  EXPECT_DOUBLE_EQ(seq.camera.fx, bonn_camera().fx);
+  EXPECT_EQ(seq.camera.world_z_up, 1);
+  EXPECT_FALSE(seq.gravity_aligned);
+  EXPECT_NE(seq.pose_file.find("groundtruth.txt"), std::string::npos);  // as published
+}
+
 TEST(ObstaclesFile, RoundTripAndMalformedLines) {
   TempDir dir;
   {

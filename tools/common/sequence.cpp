@@ -1,9 +1,12 @@
 #include "common/sequence.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+
+#include <Eigen/SVD>
 
 #include "common/text_io.hpp"
 
@@ -109,16 +112,69 @@ bool interpolate_pose(const std::vector<StampedPose>& poses, double t, double ma
   return true;
 }
 
+PoseD bonn_marker_to_optical(const PoseD& marker_pose) {
+  // The dataset's published transforms (its README / tools): T_ros swaps the ROS and the
+  // motion-capture axis conventions (it is its own inverse); T_m takes the camera to the marker.
+  Eigen::Matrix4d t_ros;
+  t_ros << -1, 0, 0, 0, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 1;
+  Eigen::Matrix4d t_m;
+  t_m << 1.0157, 0.1828, -0.2389, 0.0113, 0.0009, -0.8431, -0.6413, -0.0098, -0.3009, 0.6147,
+      -0.8085, 0.0111, 0, 0, 0, 1;
+  // T_m's rotation block carries a uniform scale of ~1.059 (a calibration artefact): a pose needs
+  // a rotation, so take the nearest one (polar decomposition), keeping the translation.
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(t_m.topLeftCorner<3, 3>(),
+                                              Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d r_m = svd.matrixU() * svd.matrixV().transpose();
+  if (r_m.determinant() < 0) {
+    Eigen::Matrix3d u = svd.matrixU();
+    u.col(2) = -u.col(2);
+    r_m = u * svd.matrixV().transpose();
+  }
+  t_m.topLeftCorner<3, 3>() = r_m;
+  // The dataset's world is y up; a +90 deg turn about x makes it z up (floor at z ~ 0).
+  Eigen::Matrix4d rx = Eigen::Matrix4d::Identity();
+  rx.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.5 * M_PI, Eigen::Vector3d::UnitX()).matrix();
+  Eigen::Matrix4d t_gt = Eigen::Matrix4d::Identity();
+  t_gt.topLeftCorner<3, 3>() = marker_pose.rotation.normalized().toRotationMatrix();
+  t_gt.topRightCorner<3, 1>() = marker_pose.translation;
+  const Eigen::Matrix4d t = rx * t_ros * t_gt * t_ros * t_m;
+  PoseD out;
+  out.translation = t.topRightCorner<3, 1>();
+  out.rotation = Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>())).normalized();
+  return out;
+}
+
+CameraModel bonn_camera() {
+  CameraModel cam;
+  cam.fx = 542.822841;
+  cam.fy = 542.576870;
+  cam.cx = 315.593520;
+  cam.cy = 237.756098;
+  cam.depth_factor = 5000.0;
+  cam.world_z_up = 1;
+  return cam;
+}
+
 Sequence read_sequence(const std::string& dir, const SequenceReadOptions& options) {
   Sequence seq;
   seq.dir = dir;
+  const bool bonn = options.poses == PoseConvention::kBonn;
   seq.camera = read_camera_file(join_path(dir, "camera.txt"), &seq.has_camera_file, &seq.warnings);
+  if (bonn && !seq.has_camera_file) seq.camera = bonn_camera();
   const std::string depth_list = join_path(dir, "depth.txt");
-  const std::string gt_path = join_path(dir, "groundtruth.txt");
+  std::string gt_path = join_path(dir, "groundtruth.txt");
+  if (bonn && file_exists(join_path(dir, "groundtruth_bonn.txt"))) {
+    gt_path = join_path(dir, "groundtruth_bonn.txt");
+  }
   if (!file_exists(depth_list))
     throw ToolError(depth_list + ": missing (not a sequence directory?)");
   if (!file_exists(gt_path)) throw ToolError(gt_path + ": missing (camera poses are required)");
   seq.poses = read_groundtruth(gt_path);
+  seq.pose_file = gt_path;
+  if (bonn) {
+    for (auto& p : seq.poses) p.pose = bonn_marker_to_optical(p.pose);
+    seq.camera.world_z_up = 1;
+  }
 
   if (seq.camera.world_z_up == 0 && options.align_gravity && !seq.poses.empty()) {
     const Eigen::Vector3d down = seq.poses.front().pose.rotation * Eigen::Vector3d::UnitY();
@@ -162,6 +218,41 @@ Image16 load_depth(const Sequence& seq, const SequenceFrame& frame) {
                     std::to_string(seq.camera.width) + "x" + std::to_string(seq.camera.height));
   }
   return img;
+}
+
+const char* to_string(DepthProblem problem) {
+  switch (problem) {
+    case DepthProblem::kNone:
+      return "ok";
+    case DepthProblem::kMissing:
+      return "missing";
+    case DepthProblem::kUnreadable:
+      return "unreadable";
+    case DepthProblem::kWrongSize:
+      return "wrong size";
+  }
+  return "?";
+}
+
+DepthProblem try_load_depth(const Sequence& seq, const SequenceFrame& frame, Image16* out,
+                            std::string* message) {
+  if (!file_exists(frame.depth_path)) {
+    *message = frame.depth_path + ": listed in depth.txt but missing";
+    return DepthProblem::kMissing;
+  }
+  try {
+    *out = read_png16(frame.depth_path);
+  } catch (const ToolError& e) {
+    *message = e.what();
+    return DepthProblem::kUnreadable;
+  }
+  if (out->width != seq.camera.width || out->height != seq.camera.height) {
+    *message = frame.depth_path + ": image is " + std::to_string(out->width) + "x" +
+               std::to_string(out->height) + " but camera.txt says " +
+               std::to_string(seq.camera.width) + "x" + std::to_string(seq.camera.height);
+    return DepthProblem::kWrongSize;
+  }
+  return DepthProblem::kNone;
 }
 
 }  // namespace dynamap::tools

@@ -41,9 +41,19 @@ struct SequenceFrame {
   PoseD pose;              ///< interpolated, in the (possibly gravity-aligned) world frame
 };
 
+/// How the camera poses of a sequence are written.
+enum class PoseConvention {
+  kTum,   ///< groundtruth.txt: the optical frame (x right, y down, z forward) in the world (TUM)
+  kBonn,  ///< Bonn RGB-D Dynamic as published: the motion-capture marker frame, y-up world
+};
+
 struct SequenceReadOptions {
   /// Largest gap (s) between an image and the nearest pose on each side (DATA_FORMAT: 0.05).
   double max_pose_gap = 0.05;
+  /// kBonn reads groundtruth_bonn.txt (or, when absent, groundtruth.txt as the dataset publishes
+  /// it) and converts every pose with bonn_marker_to_optical(); the world is then z up, so
+  /// camera.world_z_up is set to 1, and a missing camera.txt means the Bonn camera's intrinsics.
+  PoseConvention poses = PoseConvention::kTum;
   /// With world_z_up 0: rotate the world so that the first camera's "down" (+y of the optical
   /// frame) becomes -z. See Sequence::gravity_aligned.
   bool align_gravity = true;
@@ -58,6 +68,7 @@ struct Sequence {
   std::size_t images_listed = 0;        ///< lines in depth.txt
   std::size_t images_without_pose = 0;  ///< skipped: no pose within max_pose_gap on both sides
   std::vector<StampedPose> poses;       ///< groundtruth.txt, sorted, in the output world frame
+  std::string pose_file;                ///< the file the poses came from
   /// When camera.txt says world_z_up 0 and align_gravity is on, every pose (translations and
   /// rotations) was pre-multiplied by this rotation: the smallest rotation taking the first
   /// pose's camera +y axis (image down) to world -z. It leaves the origin in place. Identity
@@ -82,11 +93,32 @@ std::vector<StampedPose> read_groundtruth(const std::string& path);
 /// no pose within max_gap on both sides (an exact time match needs only that one pose).
 bool interpolate_pose(const std::vector<StampedPose>& poses, double t, double max_gap, PoseD* out);
 
+/// The Bonn RGB-D Dynamic dataset's published pose (marker frame, y-up world) as a TUM pose of
+/// the optical frame in a z-up world: T = Rx(+90 deg) * T_ros * T_gt * T_ros * T_m, with the
+/// dataset's T_ros and marker-to-camera T_m (whose 3x3 block, scaled by about 1.06, is replaced by
+/// its nearest rotation). docs/tools.md, "Real sequences".
+PoseD bonn_marker_to_optical(const PoseD& marker_pose);
+
+/// The Bonn RGB-D Dynamic dataset's depth camera (used when a Bonn sequence has no camera.txt).
+CameraModel bonn_camera();
+
 /// Reads SEQ/depth.txt, SEQ/groundtruth.txt and SEQ/camera.txt (optional). Throws ToolError
 /// with "file:line: what" for malformed lines and missing files.
 Sequence read_sequence(const std::string& dir, const SequenceReadOptions& options = {});
 
-/// Loads the depth image of a frame, checking its size against the camera model.
+/// Loads the depth image of a frame, checking its size against the camera model. Throws
+/// ToolError naming the file.
 Image16 load_depth(const Sequence& seq, const SequenceFrame& frame);
+
+/// Why a listed depth image could not be used (published datasets have such gaps).
+enum class DepthProblem { kNone, kMissing, kUnreadable, kWrongSize };
+const char* to_string(DepthProblem problem);
+
+/// load_depth() without the throw: kNone and the image in `out`, or the problem and a message
+/// naming the file in `message` (`out` is then unspecified). Missing: the file does not exist;
+/// unreadable: not a complete 16-bit single-channel PNG (truncated, 8-bit, RGB, ...); wrong size:
+/// not camera.txt's width x height.
+DepthProblem try_load_depth(const Sequence& seq, const SequenceFrame& frame, Image16* out,
+                            std::string* message);
 
 }  // namespace dynamap::tools

@@ -1,4 +1,4 @@
-// dynamap-eval SEQ RESULT_DIR [--picture]
+// dynamap-eval SEQ RESULT_DIR [--picture] [--reference OBSTACLES_FILE]
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -12,17 +12,23 @@ int main(int argc, char** argv) {
   try {
     std::string seq, result;
     bool picture = false;
+    eval::EvalOptions options;
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
       if (a == "--picture") {
         picture = true;
+      } else if (a == "--reference") {
+        if (i + 1 >= argc) throw ToolError("--reference needs a file (obstacles.txt layout)");
+        options.obstacles_file = argv[++i];
       } else if (a == "-h" || a == "--help") {
         std::printf(
-            "usage: dynamap-eval SEQ RESULT_DIR [--picture]\n"
+            "usage: dynamap-eval SEQ RESULT_DIR [--picture] [--reference FILE]\n"
             "  Compares RESULT_DIR/tracks.csv and predictions.csv (and, when present,\n"
             "  predictions_linear.csv) with the ground truth of the simulated sequence\n"
             "  SEQ; prints a table and writes RESULT_DIR/metrics.json. --picture also\n"
-            "  writes RESULT_DIR/eval_topview.png. See docs/tools.md.\n");
+            "  writes RESULT_DIR/eval_topview.png. --reference FILE scores against FILE\n"
+            "  (obstacles.txt layout, e.g. dynamap-label's reference for a real sequence)\n"
+            "  instead of SEQ/obstacles.txt. See docs/tools.md.\n");
         return 0;
       } else if (!a.empty() && a[0] == '-') {
         throw ToolError("unknown option '" + a + "'");
@@ -35,18 +41,19 @@ int main(int argc, char** argv) {
       }
     }
     if (seq.empty() || result.empty()) {
-      std::fprintf(stderr, "usage: dynamap-eval SEQ RESULT_DIR [--picture]\n");
+      std::fprintf(stderr, "usage: dynamap-eval SEQ RESULT_DIR [--picture] [--reference FILE]\n");
       return 2;
     }
-    const eval::EvalResult r = eval::evaluate(seq, result);
-    std::printf("dynamap-eval: %s vs %s\n%s", seq.c_str(), result.c_str(),
-                eval::format_table(r).c_str());
+    const eval::EvalResult r = eval::evaluate(seq, result, options);
+    std::printf("dynamap-eval: %s vs %s%s%s\n%s", seq.c_str(), result.c_str(),
+                options.obstacles_file.empty() ? "" : ", reference ",
+                options.obstacles_file.c_str(), eval::format_table(r).c_str());
     const std::string json = join_path(result, "metrics.json");
-    eval::write_metrics_json(json, r, seq, result);
+    eval::write_metrics_json(json, r, seq, result, options.obstacles_file);
     std::printf("wrote %s\n", json.c_str());
     if (picture) {
       const std::string png = join_path(result, "eval_topview.png");
-      eval::write_eval_picture(png, seq, result);
+      eval::write_eval_picture(png, seq, result, options.obstacles_file);
       std::printf("wrote %s\n", png.c_str());
     }
     return 0;

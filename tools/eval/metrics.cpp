@@ -153,12 +153,14 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
   const Sequence seq = read_sequence(seq_dir, ro);
   if (seq.camera.world_z_up != 1) {
     throw ToolError(join_path(seq_dir, "camera.txt") +
-                    ": dynamap-eval needs world_z_up 1 (ground truth comes from simulated, z-up "
-                    "sequences)");
+                    ": dynamap-eval needs world_z_up 1 (obstacles are boxes in a z-up world)");
   }
-  const std::string obstacles_path = join_path(seq_dir, "obstacles.txt");
+  const std::string obstacles_path =
+      opt.obstacles_file.empty() ? join_path(seq_dir, "obstacles.txt") : opt.obstacles_file;
   if (!file_exists(obstacles_path)) {
-    throw ToolError(obstacles_path + ": missing (evaluation needs ground-truth obstacles)");
+    throw ToolError(obstacles_path +
+                    ": missing (evaluation needs ground-truth or reference obstacles; for a real "
+                    "sequence make them with dynamap-label and pass --reference FILE)");
   }
   const auto obstacles = by_stamp(read_obstacles(obstacles_path));
   const auto track_rows = read_tracks_csv(join_path(result_dir, "tracks.csv"));
@@ -254,10 +256,15 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
       if (!ignored) ++r.false_positives;
     }
   }
+  std::set<int> ids, dynamic_ids;
   for (const auto& t : track_rows) {
+    ids.insert(t.id);
+    if (t.dynamic) dynamic_ids.insert(t.id);
     if (t.dynamic) ++r.dynamic_track_rows;
     if (frame_keys.count(stamp_key(t.stamp)) == 0) ++r.track_rows_unknown_stamp;
   }
+  r.track_ids = ids.size();
+  r.dynamic_track_ids = dynamic_ids.size();
   // Dynamic rows at stamps that are no frame were not visited above: count them as not near.
   r.position_error = r.matched > 0 ? pos_sum / r.matched : kNaN;
   r.velocity_error = r.matched > 0 ? vel_sum / r.matched : kNaN;
@@ -349,6 +356,8 @@ std::string format_table(const EvalResult& r) {
       "FN " + std::to_string(r.false_negatives) + ", FP " + std::to_string(r.false_positives) +
           ", ID switches " + std::to_string(r.id_switches));
   row("ID switches", std::to_string(r.id_switches), "");
+  row("track ids", std::to_string(r.track_ids),
+      std::to_string(r.dynamic_track_ids) + " of them labelled dynamic at some frame");
   auto pred = [&](const char* name, const PredictionMetrics& p) {
     if (!p.available) {
       row(name, "n/a", "no file");
@@ -366,7 +375,7 @@ std::string format_table(const EvalResult& r) {
 }
 
 void write_metrics_json(const std::string& path, const EvalResult& r, const std::string& seq_dir,
-                        const std::string& result_dir) {
+                        const std::string& result_dir, const std::string& obstacles_file) {
   std::ofstream o(path);
   if (!o) throw ToolError(path + ": cannot create file");
   auto pred = [&](const PredictionMetrics& p) {
@@ -380,6 +389,9 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
   o << "{\n"
     << "  \"sequence\": " << json_string(seq_dir) << ",\n"
     << "  \"result_dir\": " << json_string(result_dir) << ",\n"
+    << "  \"obstacles\": "
+    << json_string(obstacles_file.empty() ? join_path(seq_dir, "obstacles.txt") : obstacles_file)
+    << ",\n"
     << "  \"frames\": " << r.frames << ",\n"
     << "  \"gt_count\": " << r.gt_count << ",\n"
     << "  \"matched\": " << r.matched << ",\n"
@@ -388,6 +400,8 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
     << "  \"recall\": " << json_num(r.recall) << ",\n"
     << "  \"precision\": " << json_num(r.precision) << ",\n"
     << "  \"dynamic_track_rows\": " << r.dynamic_track_rows << ",\n"
+    << "  \"track_ids\": " << r.track_ids << ",\n"
+    << "  \"dynamic_track_ids\": " << r.dynamic_track_ids << ",\n"
     << "  \"dynamic_rows_near_obstacle\": " << r.dynamic_rows_near_obstacle << ",\n"
     << "  \"false_negatives\": " << r.false_negatives << ",\n"
     << "  \"false_positives\": " << r.false_positives << ",\n"
@@ -408,7 +422,7 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
 }
 
 void write_eval_picture(const std::string& png_path, const std::string& seq_dir,
-                        const std::string& result_dir) {
+                        const std::string& result_dir, const std::string& obstacles_file) {
   SequenceReadOptions ro;
   ro.align_gravity = false;
   const Sequence seq = read_sequence(seq_dir, ro);
@@ -427,7 +441,8 @@ void write_eval_picture(const std::string& png_path, const std::string& seq_dir,
     pic.camera_hfov = 2.0 * std::atan(0.5 * seq.camera.width / seq.camera.fx);
   }
   std::map<int, TopViewPath> gt_paths, track_paths;
-  const std::string obstacles_path = join_path(seq_dir, "obstacles.txt");
+  const std::string obstacles_path =
+      obstacles_file.empty() ? join_path(seq_dir, "obstacles.txt") : obstacles_file;
   const auto obstacles =
       file_exists(obstacles_path) ? read_obstacles(obstacles_path) : std::vector<ObstacleRecord>{};
   for (const auto& o : obstacles) {

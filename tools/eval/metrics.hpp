@@ -21,6 +21,9 @@ struct EvalOptions {
   /// horizontal size of the track's box at that time stamp (0.25 m when the track row is missing).
   double footprint_radius = 0.0;
   double ground_clearance = 0.2;  ///< m: static shapes lower than floor + this are ignored
+  /// The obstacles to score against; empty: SEQ/obstacles.txt (the simulator's truth). For a
+  /// real sequence, a reference made from the data (dynamap-label's obstacles.txt).
+  std::string obstacles_file;
 };
 
 /// Failure ratio of one predictor's chosen paths against the true static world.
@@ -40,6 +43,8 @@ struct EvalResult {
   std::size_t false_positives = 0;  ///< MOTA sense, see docs/tools.md
   std::size_t id_switches = 0;
   std::size_t dynamic_track_rows = 0;  ///< all dynamic rows of tracks.csv
+  std::size_t track_ids = 0;           ///< distinct track ids in tracks.csv
+  std::size_t dynamic_track_ids = 0;   ///< of those, ids labelled dynamic in some row
   std::size_t dynamic_rows_near_obstacle = 0;
   std::size_t track_rows_unknown_stamp = 0;  ///< rows whose stamp is no frame of the sequence
   double position_error = 0.0;               ///< m, NaN when nothing matched
@@ -61,11 +66,11 @@ std::string format_table(const EvalResult& r);
 
 /// metrics.json (NaN written as null).
 void write_metrics_json(const std::string& path, const EvalResult& r, const std::string& seq_dir,
-                        const std::string& result_dir);
+                        const std::string& result_dir, const std::string& obstacles_file = "");
 
 /// Optional picture: static world, true paths, tracked dynamic paths, final boxes, predictions.
 void write_eval_picture(const std::string& png_path, const std::string& seq_dir,
-                        const std::string& result_dir);
+                        const std::string& result_dir, const std::string& obstacles_file = "");
 
 /// Minimum-cost one-to-one assignment (Hungarian method) of a rows x cols cost matrix
 /// (row-major). Returns for each row the assigned column or -1. Pairs with cost >= `forbidden`

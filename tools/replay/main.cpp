@@ -1,8 +1,11 @@
 // dynamap-replay: runs the pipeline over a sequence in the TUM RGB-D layout (DATA_FORMAT.md) and
-// writes tracks.csv, predictions.csv (+ predictions_linear.csv), timing.csv and top-view
-// pictures, printing progress and a summary.
+// writes tracks.csv, detections.csv, predictions.csv (+ predictions_linear.csv), timing.csv and
+// top-view pictures, printing progress and a summary. Real sequences have gaps: a listed depth
+// file that is missing, unreadable or of the wrong size is skipped, counted and named (exit
+// status 3), unless --strict asks to stop at the first one.
 //
 //   dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N] [--picture-every N] [--quiet]
+//                  [--strict] [--poses tum|bonn] [--cpu-clock]
 //   dynamap-replay --help-params
 #include <algorithm>
 #include <cmath>
@@ -43,7 +46,12 @@ struct Options {
   long picture_every = 0;
   bool quiet = false;
   bool cpu_clock = false;
+  bool strict = false;
+  PoseConvention poses = PoseConvention::kTum;
 };
+
+// Exit status of a run that completed but skipped listed depth files (docs/tools.md).
+constexpr int kExitCompletedWithGaps = 3;
 
 std::uint64_t thread_cpu_clock() {
   return dynamap::platform::thread_cpu_ns();
@@ -51,14 +59,23 @@ std::uint64_t thread_cpu_clock() {
 
 void usage(std::ostream& os) {
   os << "usage: dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N]\n"
-        "                      [--picture-every N] [--quiet]\n"
+        "                      [--picture-every N] [--quiet] [--strict] [--poses tum|bonn]\n"
+        "                      [--cpu-clock]\n"
         "       dynamap-replay --help-params\n"
-        "Runs the dynamap pipeline over SEQ (TUM RGB-D layout, see DATA_FORMAT.md) and writes\n"
-        "DIR/tracks.csv, DIR/predictions.csv, DIR/predictions_linear.csv, DIR/timing.csv,\n"
-        "DIR/topview.png (final state) and, with --picture-every N, DIR/frames/frame_NNNNN.png.\n"
+        "Runs the dynamap pipeline over SEQ (TUM RGB-D layout, see docs/data_format.md) and\n"
+        "writes DIR/tracks.csv, DIR/detections.csv, DIR/predictions.csv,\n"
+        "DIR/predictions_linear.csv, DIR/timing.csv, DIR/topview.png (final state) and, with\n"
+        "--picture-every N, DIR/frames/frame_NNNNN.png.\n"
         "--params FILE: YAML with PipelineConfig keys (e.g. 'map: {resolution: 0.1}').\n"
+        "--strict: stop at the first listed depth file that is missing, unreadable or of the\n"
+        "  wrong size (default: skip it, count it, name it, go on, and exit with status 3).\n"
+        "--poses bonn: the poses are the Bonn RGB-D Dynamic dataset's as published\n"
+        "  (groundtruth_bonn.txt, else groundtruth.txt; marker frame, y-up world); they are\n"
+        "  converted to the camera's optical frame in a z-up world. Default: tum.\n"
         "--cpu-clock: time the stages with the thread's CPU clock instead of the wall clock\n"
-        "  (for timing tables on a shared, loaded machine).\n";
+        "  (for timing tables on a shared, loaded machine).\n"
+        "Exit status: 0 every listed image with a pose was replayed, 3 completed but depth files\n"
+        "were skipped, 1 error, 2 usage.\n";
 }
 
 bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
@@ -107,6 +124,20 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
       o.quiet = true;
     } else if (a == "--cpu-clock") {
       o.cpu_clock = true;
+    } else if (a == "--strict") {
+      o.strict = true;
+    } else if (a == "--poses") {
+      const char* v = value("--poses");
+      if (v == nullptr) return false;
+      const std::string p = v;
+      if (p == "tum") {
+        o.poses = PoseConvention::kTum;
+      } else if (p == "bonn") {
+        o.poses = PoseConvention::kBonn;
+      } else {
+        std::cerr << "dynamap-replay: --poses takes tum or bonn, not '" << p << "'\n";
+        return false;
+      }
     } else if (!a.empty() && a[0] == '-') {
       std::cerr << "dynamap-replay: unknown option '" << a << "'\n";
       usage(std::cerr);
@@ -215,8 +246,32 @@ double percentile_ms(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, r == 0 ? 0 : r - 1)];
 }
 
+// Listed depth files that could not be used, by problem, for the summary.
+struct SkippedDepth {
+  std::map<DepthProblem, std::size_t> count;
+  std::vector<std::string> messages;
+  std::size_t total() const {
+    std::size_t n = 0;
+    for (const auto& [problem, k] : count) n += k;
+    return n;
+  }
+};
+
+void write_detection_rows(std::ostream& out, const std::string& stamp_text,
+                          const DetectionList& detections) {
+  for (std::size_t k = 0; k < detections.size(); ++k) {
+    const Detection& d = detections[k];
+    const Eigen::Vector3f c = d.box.center(), sz = d.box.size();
+    out << stamp_text << "," << k << "," << c.x() << "," << c.y() << "," << c.z() << "," << sz.x()
+        << "," << sz.y() << "," << sz.z() << "," << d.image_box.u0 << "," << d.image_box.v0 << ","
+        << d.image_box.u1 << "," << d.image_box.v1 << "," << (d.refined ? 1 : 0) << "\n";
+  }
+}
+
 int run(const Options& o) {
-  const Sequence seq = read_sequence(o.seq);
+  SequenceReadOptions read_options;
+  read_options.poses = o.poses;
+  const Sequence seq = read_sequence(o.seq, read_options);
   if (seq.frames.empty()) throw ToolError(o.seq + ": no depth image has a pose; nothing to replay");
   for (const std::string& w : seq.warnings) std::cerr << "warning: " << w << "\n";
 
@@ -244,7 +299,9 @@ int run(const Options& o) {
   std::ofstream preds = open_out(join_path(o.out, "predictions.csv"));
   std::ofstream linear = open_out(join_path(o.out, "predictions_linear.csv"));
   std::ofstream timing = open_out(join_path(o.out, "timing.csv"));
+  std::ofstream detections = open_out(join_path(o.out, "detections.csv"));
   tracks << "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n";
+  detections << "stamp,index,x,y,z,sx,sy,sz,u0,v0,u1,v1,refined\n";
   preds << "stamp,id,path,probability,k,t,x,y,z\n";
   linear << "stamp,id,path,probability,k,t,x,y,z\n";
   timing << "stamp";
@@ -258,6 +315,8 @@ int run(const Options& o) {
                             : seq.frames.size();
   std::set<std::uint32_t> ids, dynamic_ids;
   std::size_t rejected = 0, pictures = 0;
+  SkippedDepth skipped;
+  Image16 depth;
   std::vector<double> decode_ms, process_ms;
   std::array<std::vector<double>, kStageCount> stage_ms;
   Pose last_pose;
@@ -268,7 +327,15 @@ int run(const Options& o) {
   for (std::size_t i = 0; i < n; ++i) {
     const SequenceFrame& sf = seq.frames[i];
     const double t0 = wall_seconds();
-    const Image16 depth = load_depth(seq, sf);
+    std::string problem_text;
+    const DepthProblem problem = try_load_depth(seq, sf, &depth, &problem_text);
+    if (problem != DepthProblem::kNone) {
+      if (o.strict) throw ToolError(problem_text + " (--strict)");
+      ++skipped.count[problem];
+      skipped.messages.push_back(problem_text);
+      std::cerr << (o.quiet ? "" : "\n") << "warning: skipped: " << problem_text << "\n";
+      continue;
+    }
     decode_ms.push_back(1e3 * (wall_seconds() - t0));
     Frame frame;
     frame.stamp = static_cast<Stamp>(std::llround(sf.stamp * 1e9));
@@ -309,6 +376,7 @@ int run(const Options& o) {
         ps.dynamic_paths[ob.id].push_back(c.head<2>().cast<double>());
       }
     }
+    write_detection_rows(detections, sf.stamp_text, pipeline->detections());
     for (std::size_t j = 0; j < out->num_predictions; ++j) {
       write_prediction_rows(preds, sf.stamp_text, out->predictions[j]);
       if (config.run_linear_baseline)
@@ -337,6 +405,10 @@ int run(const Options& o) {
   }
   if (!o.quiet) std::fprintf(stderr, "\n");
   const double elapsed = wall_seconds() - t_start;
+  if (process_ms.empty()) {
+    throw ToolError(o.seq + ": none of the " + std::to_string(n) +
+                    " frames could be replayed (see the warnings above)");
+  }
 
   render_top_view(build_scene(*pipeline, *out, ps, world.get(), truth, last_stamp, last_pose, cam,
                               "dynamap: final state of " + o.seq,
@@ -346,8 +418,29 @@ int run(const Options& o) {
 
   const PipelineCounters& c = pipeline->counters();
   std::printf("dynamap-replay %s -> %s\n", o.seq.c_str(), o.out.c_str());
-  std::printf("  frames: %zu listed, %zu without pose (skipped), %zu processed, %zu rejected\n",
-              seq.images_listed, seq.images_without_pose, process_ms.size(), rejected);
+  std::printf("  poses: %s%s\n", seq.pose_file.c_str(),
+              o.poses == PoseConvention::kBonn ? " (Bonn marker poses, converted)" : "");
+  std::printf(
+      "  frames: %zu listed, %zu without pose (skipped), %zu depth files skipped, %zu processed, "
+      "%zu rejected\n",
+      seq.images_listed, seq.images_without_pose, skipped.total(), process_ms.size(), rejected);
+  if (skipped.total() > 0) {
+    std::printf("  skipped depth files:");
+    const char* sep = " ";
+    for (const auto& [problem, k] : skipped.count) {
+      std::printf("%s%zu %s", sep, k, to_string(problem));
+      sep = ", ";
+    }
+    std::printf("\n");
+    constexpr std::size_t kNamed = 10;  // a long list of gaps would bury the summary
+    for (std::size_t k = 0; k < std::min(kNamed, skipped.messages.size()); ++k) {
+      std::printf("    %s\n", skipped.messages[k].c_str());
+    }
+    if (skipped.messages.size() > kNamed) {
+      std::printf("    ... and %zu more (each one is on stderr)\n",
+                  skipped.messages.size() - kNamed);
+    }
+  }
   std::printf("  tracks: %zu ids, %zu ever labelled dynamic\n", ids.size(), dynamic_ids.size());
   std::printf("  time per frame (ms, %s)   median     p99     max\n",
               o.cpu_clock ? "thread CPU time" : "wall time");
@@ -371,10 +464,10 @@ int run(const Options& o) {
   std::printf("  wall time %.2f s (%.1f frames/s incl. PNG decode and output)\n", elapsed,
               static_cast<double>(n) / std::max(1e-9, elapsed));
   std::printf(
-      "  wrote tracks.csv, predictions.csv, predictions_linear.csv, timing.csv, "
+      "  wrote tracks.csv, detections.csv, predictions.csv, predictions_linear.csv, timing.csv, "
       "topview.png%s\n",
       pictures > 0 ? (", " + std::to_string(pictures) + " pictures in frames/").c_str() : "");
-  return 0;
+  return skipped.total() > 0 ? kExitCompletedWithGaps : 0;
 }
 
 }  // namespace
