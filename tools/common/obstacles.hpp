@@ -1,4 +1,4 @@
-// obstacles.txt (ground-truth obstacles of simulated sequences, DATA_FORMAT.md):
+// obstacles.txt (ground-truth obstacles of simulated sequences, docs/data_format.md):
 //   # timestamp id x y z vx vy vz sx sy sz visible
 #pragma once
 

@@ -1,5 +1,5 @@
-// Readers of the replay tool's outputs (DATA_FORMAT.md): tracks.csv and predictions.csv, and the
-// writer of predictions.csv rows. Columns are found by their header names, so extra columns
+// Readers of the replay tool's outputs (docs/data_format.md): tracks.csv and predictions.csv, and
+// the writer of predictions.csv rows. Columns are found by their header names, so extra columns
 // (anywhere) are ignored.
 #pragma once
 
@@ -43,8 +43,8 @@ std::vector<TrackRow> read_tracks_csv(const std::string& path);
 std::vector<PredictionRow> read_predictions_csv(const std::string& path);
 
 /// Writes one prediction as predictions.csv rows (one per sample of the chosen path). `path` is
-/// the chosen index, or -1 when no path of the library is free in the map: DATA_FORMAT.md counts
-/// such a prediction as failed whatever its samples do, so the evaluator must be told.
+/// the chosen index, or -1 when no path of the library is free in the map: docs/data_format.md
+/// counts such a prediction as failed whatever its samples do, so the evaluator must be told.
 void write_prediction_rows(std::ostream& out, const std::string& stamp_text,
                            const PathPrediction& prediction);
 

@@ -1,4 +1,4 @@
-// Reader of a sequence directory in the TUM RGB-D layout of DATA_FORMAT.md: depth.txt,
+// Reader of a sequence directory in the TUM RGB-D layout of docs/data_format.md: depth.txt,
 // groundtruth.txt (poses interpolated to the depth time stamps), optional camera.txt.
 #pragma once
 
@@ -48,7 +48,8 @@ enum class PoseConvention {
 };
 
 struct SequenceReadOptions {
-  /// Largest gap (s) between an image and the nearest pose on each side (DATA_FORMAT: 0.05).
+  /// Largest gap (s) between an image and the nearest pose on each side (docs/data_format.md:
+  /// 0.05).
   double max_pose_gap = 0.05;
   /// kBonn reads groundtruth_bonn.txt (or, when absent, groundtruth.txt as the dataset publishes
   /// it) and converts every pose with bonn_marker_to_optical(); the world is then z up, so

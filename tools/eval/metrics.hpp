@@ -1,4 +1,4 @@
-// The evaluation of DATA_FORMAT.md ("Metrics"): position / velocity error, recall, precision,
+// The evaluation of docs/data_format.md ("Metrics"): position / velocity error, recall, precision,
 // MOTA, ID switches and the prediction failure ratio, from a simulated sequence (obstacles.txt,
 // static_world.txt) and a replay result directory (tracks.csv, predictions.csv).
 #pragma once
@@ -9,7 +9,7 @@
 
 namespace dynamap::tools::eval {
 
-/// Thresholds; the defaults are the ones DATA_FORMAT.md prescribes.
+/// Thresholds; the defaults are the ones docs/data_format.md prescribes.
 struct EvalOptions {
   double moving_speed = 0.2;  ///< m/s: ground truth counted when at least this fast
   double min_visible = 0.5;   ///< visible fraction

@@ -69,7 +69,8 @@ int main(int argc, char** argv) {
     std::ostringstream t1, t3;
     std::vector<std::string> stage_names;
     std::vector<std::vector<double>> stage_us;
-    t1 << "### Table I: tracking accuracy per scene (dynamic obstacles, DATA_FORMAT.md metrics)\n\n"
+    t1 << "### Table I: tracking accuracy per scene (dynamic obstacles, docs/data_format.md "
+          "metrics)\n\n"
        << "| scene | GT obstacle-frames | position error (m) | velocity error (m/s) | recall | "
           "precision | MOTA | ID switches | dynamic rows "
           "|\n|---|---|---|---|---|---|---|---|---|\n";

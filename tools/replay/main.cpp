@@ -1,5 +1,5 @@
-// dynamap-replay: runs the pipeline over a sequence in the TUM RGB-D layout (DATA_FORMAT.md) and
-// writes tracks.csv, detections.csv, predictions.csv (+ predictions_linear.csv), timing.csv and
+// dynamap-replay: runs the pipeline over a sequence in the TUM RGB-D layout (docs/data_format.md)
+// and writes tracks.csv, detections.csv, predictions.csv (+ predictions_linear.csv), timing.csv and
 // top-view pictures, printing progress and a summary. Real sequences have gaps: a listed depth
 // file that is missing, unreadable or of the wrong size is skipped, counted and named (exit
 // status 3), unless --strict asks to stop at the first one.

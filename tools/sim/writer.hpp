@@ -1,4 +1,4 @@
-// Writes a simulated sequence directory (TUM layout of DATA_FORMAT.md + camera.txt,
+// Writes a simulated sequence directory (TUM layout of docs/data_format.md + camera.txt,
 // obstacles.txt, static_world.txt and a top-view picture of the scene).
 #pragma once
 
