@@ -695,8 +695,8 @@ TEST(MarkovPredictor, FootprintClearanceCountsNearMisses) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Causes of prediction failures on the simulated scenes (docs/predictor.md, "Why predictions
-// failed").
+// Causes of prediction failures on the simulated scenes
+// (docs/notes/predictor-failures-1-own-body.md).
 
 TEST(MarkovPredictor, TransitionMixesInTheInitialDistribution) {
   MarkovPredictorConfig c = markov_config(5);
@@ -795,9 +795,9 @@ std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames,
 }
 
 TEST(MarkovPredictor, CompoundingBeliefDriftsOffTheStraightPathAlongAWall) {
-  // DESIGN.md §4.6 as written: every frame P_trans leaks belief from the straight path into the
-  // blocked right turns and P_env takes it away again, so the same wall counts again every frame
-  // and the belief settles in the middle of the free set: a left turn, though nothing but the
+  // docs/design.md §4.6 as written: every frame P_trans leaks belief from the straight path into
+  // the blocked right turns and P_env takes it away again, so the same wall counts again every
+  // frame and the belief settles in the middle of the free set: a left turn, though nothing but the
   // wall on the right has changed since the first frame (the "lane-centre drift").
   const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kCompound, 60);
   EXPECT_EQ(chosen.front(), 2u);

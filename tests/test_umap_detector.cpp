@@ -7,8 +7,8 @@
 //  * lateral axes (map y, z = camera x, y): box centre within 0.1 m and size within 0.15 m of
 //    the true box;
 //  * the viewing axis (map x = camera depth): a depth camera sees only the near surface, so the
-//    detector's box along the ray spans the visible surface, not the object (DESIGN.md §4.4; the
-//    tracker corrects this bias). We compare what the camera can measure: the near face within
+//    detector's box along the ray spans the visible surface, not the object (docs/design.md §4.4;
+//    the tracker corrects this bias). We compare what the camera can measure: the near face within
 //    0.1 m of the true front face, and the far side never more than 0.1 m beyond the true back
 //    face. The centre/size along the ray are NOT compared against the full object here.
 #include <gtest/gtest.h>

@@ -27,8 +27,8 @@ struct ContinuityConfig {
   /// Plausibility test on the obstacle size: a frame votes dynamic only when min_size <= size <=
   /// max_size on every axis. On by default with upper limits only: the pieces of wall that slide
   /// as the camera moves are as tall as the wall in view (2.5 m), people are not; partly hidden
-  /// people have small boxes, so there is no lower limit (measured: docs/tracker.md, "Size
-  /// check"). Raise max_size to track larger movers (vehicles), or turn it off.
+  /// people have small boxes, so there is no lower limit (docs/tracker.md, "Static or
+  /// dynamic"). Raise max_size to track larger movers (vehicles), or turn it off.
   bool check_size = true;
   Eigen::Vector3f min_size{0.f, 0.f, 0.f};
   Eigen::Vector3f max_size{2.0f, 2.0f, 2.2f};

@@ -22,7 +22,7 @@ enum class MotionModel : std::uint8_t {
   kTurnImm = 1,           ///< TurnImmKalman: constant velocity + coordinated turn
 };
 
-/// Parameters of TurnImmKalman beyond the shared P0 and R (docs/tracker.md, "Motion model").
+/// Parameters of TurnImmKalman beyond the shared P0 and R (docs/tracker.md, "Motion filter").
 /// Process noises are continuous-time densities, so they do not depend on the frame rate.
 struct ImmConfig {
   /// White-acceleration density of the straight (CV) mode (m^2/s^3): a walker on a straight line
@@ -52,7 +52,8 @@ struct ImmConfig {
 
 /// Noise model of ConstantVelocityKalman. Q is given per `q_reference_dt` seconds and scaled by
 /// dt / q_reference_dt, so irregular frame intervals add proportionally more or less uncertainty.
-/// The defaults are tuned for σ ≈ 5 cm position noise at 30 Hz (see docs/tracker.md);
+/// The defaults model the detector's measured centre noise (σ ≈ 1.6 cm) at 30 Hz and walkers'
+/// turns (docs/tracker.md, "Motion filter"); for 5 cm detections see the same section;
 /// `original()` gives the original code's P0 = 0.3 I, Q = 0.002 I, R = 0.3 I.
 struct KalmanConfig {
   float p0_position = 0.3f;             ///< initial position variance (m^2)

@@ -1,6 +1,7 @@
-// LinearPredictor: the constant-velocity baseline of DESIGN.md §4.6. Extrapolates each obstacle
-// along its velocity over the same horizon and samples as the path library's straight path, and
-// fails under the same definition as MarkovPredictor (its single path meets the static map).
+// LinearPredictor: the constant-velocity baseline of docs/design.md §4.6. Extrapolates each
+// obstacle along its velocity over the same horizon and samples as the path library's straight
+// path, and fails under the same definition as MarkovPredictor (its single path meets the static
+// map).
 #pragma once
 
 #include <cstddef>

@@ -1,4 +1,4 @@
-// MapRefiner: tightens the detector's raw boxes against the occupancy map (DESIGN.md §4.3).
+// MapRefiner: tightens the detector's raw boxes against the occupancy map (docs/design.md §4.3).
 // Each raw box is inflated by C_inflate; occupied voxels overlapping it (plus voxels of a caller's
 // "clean history", which were freed because a dynamic obstacle passed but still count) that are
 // above the floor band give the refined box, their tight voxel bounds. Bounded work per box.

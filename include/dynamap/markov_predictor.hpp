@@ -1,8 +1,8 @@
-// MarkovPredictor: environment-aware trajectory prediction (DESIGN.md §4.6). Per track, a belief
-// P over the l library paths evolves as P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)), where
-// P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map
-// (or, with BeliefUpdate::kChoiceOnly and the others, P_env only chooses and is not carried on).
-// All state is inline (fixed capacity); predict() never allocates and does bounded work.
+// MarkovPredictor: environment-aware trajectory prediction (docs/design.md §4.6). Per track, a
+// belief P over the l library paths evolves as P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)),
+// where P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map (or,
+// with BeliefUpdate::kChoiceOnly and the others, P_env only chooses and is not carried on). All
+// state is inline (fixed capacity); predict() never allocates and does bounded work.
 #pragma once
 
 #include <array>
@@ -17,11 +17,11 @@
 
 namespace dynamap {
 
-/// How the environment term P_env enters a track's belief (docs/predictor.md, "Non-compounding
-/// belief"). In every mode the frame's choice is the most likely path of the belief times this
+/// How the environment term P_env enters a track's belief (docs/predictor.md, "Belief update
+/// modes"). In every mode the frame's choice is the most likely path of the belief times this
 /// frame's P_env (with choose_free), and PathPrediction::probability is that product, normalised.
 enum class BeliefUpdate : std::uint8_t {
-  /// P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)), DESIGN.md §4.6: the same wall seen
+  /// P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)), docs/design.md §4.6: the same wall seen
   /// again is counted again every frame, so P_env compounds (the "lane-centre drift").
   kCompound = 0,
   /// P(t+1) = P(t) * P_trans (a new track starts from P_init): the belief is the chain's prior
@@ -53,7 +53,7 @@ struct MarkovPredictorConfig {
   /// turn walks straight on in that frame; without this term nothing but P_env ever pulls the
   /// belief back to straight, and where the map does not tell the paths apart (all free, or all
   /// ending in unknown space) it stays on a turn forever. [0, 1); 0 (default) is the plain
-  /// Gaussian chain: 0.2 halves the corridor failures but raises env_a/env_b (docs/predictor.md).
+  /// Gaussian chain; measured, the term helps corridors and hurts rooms (docs/predictor.md).
   float straight_return = 0.0f;
   /// Weight, in [0, 1], of the stretch of a path that runs through space the map has never
   /// observed (unknown voxels) in the free distance of P_env: Dist_i = observed_i +
@@ -69,14 +69,14 @@ struct MarkovPredictorConfig {
   /// scores nearly as well as a free one), so the plain maximum can pick a path the predictor
   /// itself knows collides (out->failed) while a free one is almost as likely. The belief and
   /// the probabilities are the same either way; only the choice differs. false: the plain
-  /// maximum (DESIGN.md §4.6 as written).
+  /// maximum (docs/design.md §4.6 as written).
   bool choose_free = true;
   /// The current depth frame as a second environment source next to the map (prediction.hpp,
   /// DepthCheckConfig): Dist_i is the smaller of the two free distances, and a path is free
   /// (free_mask, any_free, choose_free, failed) only when neither meets anything. Used only
   /// when predict() is given the frame; enabled = false is the map-only predictor.
   DepthCheckConfig depth_check{};
-  /// How P_env enters the belief; kCompound is DESIGN.md §4.6 as written.
+  /// How P_env enters the belief; kCompound is docs/design.md §4.6 as written.
   BeliefUpdate belief_update = BeliefUpdate::kCompound;
 };
 

@@ -16,7 +16,7 @@
 
 namespace dynamap {
 
-/// Shape and horizon of the candidate paths (DESIGN.md §4.6).
+/// Shape and horizon of the candidate paths (docs/design.md §4.6).
 struct PathLibraryConfig {
   std::size_t num_paths = 5;              ///< l, 1..kMaxPaths
   float max_heading_change = 1.5707964f;  ///< rad, heading change of the outermost paths, [0, pi]

@@ -97,20 +97,20 @@ struct ClearanceConfig {
 };
 
 /// The current depth frame as a second, bounded source of environment knowledge for the sweep
-/// (docs/predictor.md, "Depth image"). The map integrates hits only up to map.max_depth (5 m)
-/// and needs a few frames to mark a surface occupied, while the tracker follows people to ~8 m:
-/// a far walker's walls are unknown in the map, but they are in this frame. Each swept point is
-/// projected into the image: more than the noise margin m(d) in front of the measured surface it
-/// is seen free now; from there to m(d) + max(surface_thickness, the sample spacing) behind the
+/// (docs/predictor.md, "Options in more detail"). The map integrates hits only up to map.max_depth
+/// (5 m) and needs a few frames to mark a surface occupied, while the tracker follows people to
+/// ~8 m: a far walker's walls are unknown in the map, but they are in this frame. Each swept point
+/// is projected into the image: more than the noise margin m(d) in front of the measured surface
+/// it is seen free now; from there to m(d) + max(surface_thickness, the sample spacing) behind the
 /// surface, the path meets something; farther behind it (occluded), outside the image, with no
 /// return or out of the range below, the image knows nothing and the map's answer stands. (Only
 /// "behind the surface by more than m(d)" was tried too: corridor walls seen at a grazing angle
-/// then slip through, docs/predictor.md.) Pixels whose measured point is floor (below the
-/// obstacle's bottom + ground_clearance) or lies on a predicted obstacle (within its footprint
-/// radius + self_margin + m(d), top view: its own body and the other walkers) never count as a
-/// surface.
+/// then slip through, docs/notes/predictor-depth-check.md.) Pixels whose measured point is floor
+/// (below the obstacle's bottom + ground_clearance) or lies on a predicted obstacle (within its
+/// footprint radius + self_margin + m(d), top view: its own body and the other walkers) never
+/// count as a surface.
 struct DepthCheckConfig {
-  bool enabled = false;  ///< false: the map alone decides (DESIGN.md §4.6)
+  bool enabled = false;  ///< false: the map alone decides (docs/design.md §4.6)
   /// Noise margin m(d) = noise_margin + noise_quadratic * d^2 of a pixel at depth d (stereo
   /// noise grows with d^2): a point that close in front of the surface counts as at it.
   float noise_margin = 0.05f;       ///< m, >= 0

@@ -1,7 +1,8 @@
 // Tracker: fixed-capacity multi-obstacle tracker. Per frame it associates detections with tracks
-// in the top view, runs a constant-velocity Kalman filter per track, fixes the obstacle size once
-// it has been fully in view, corrects the near-surface bias of depth boxes, and labels each track
-// static or dynamic with the continuity filter and a voting window. No heap, no exceptions.
+// in the top view, runs a motion filter per track (by default an IMM of constant velocity and
+// coordinated turn), fixes the obstacle size once it has been fully in view, corrects the
+// near-surface bias of depth boxes, and labels each track static or dynamic with the continuity
+// filter and a voting window. No heap, no exceptions.
 #pragma once
 
 #include <array>
@@ -85,12 +86,12 @@ struct TrackerConfig {
   /// Early label (0 disables): a track is labelled dynamic as soon as its first `early_votes`
   /// votes were all dynamic, cast on consecutive frames (no missed frame in between), instead of
   /// waiting for T_c of c votes. A walker in view is detected every frame and votes dynamic from
-  /// its first vote; the wall pieces and people standing that pass a vote flicker in and out:
-  /// measured on every built-in scene at two seeds, none starts with more than 2 dynamic votes in
-  /// a row (docs/tracker.md, "Early label, part 2"), so 4 keeps a margin of 2. The label is
-  /// provisional: a static vote or a missed frame before the T_c rule holds withdraws it. A track
-  /// that was dynamic before (a walker after a pause) may be re-labelled the same way by
-  /// `early_votes` consecutive dynamic votes.
+  /// its first vote; the wall pieces and people standing that pass a vote flicker in and out
+  /// and start with short runs of dynamic votes, so the default keeps a margin over the longest
+  /// run measured (docs/tracker.md, "Static or dynamic"). The label is provisional: a static vote
+  /// or a missed frame before the T_c rule holds withdraws it. A track that was dynamic before (a
+  /// walker after a pause) may be re-labelled the same way by `early_votes` consecutive dynamic
+  /// votes.
   std::size_t early_votes = 4;
   /// While the history is shorter than the n + 2 states the continuity filter needs, vote with
   /// displacements this many frames apart once 2 * early_displacement_frames + 1 states exist
@@ -100,27 +101,25 @@ struct TrackerConfig {
   /// After the size is frozen, keep averaging k' in-view frames at a time and raise the frozen
   /// size to a larger window mean. A nearer occluder (a pillar the walker steps out from behind)
   /// only ever shrinks the visible extent, and the "fully in view" test sees the image border
-  /// only, so a size frozen during a partial occlusion was too small for good (env_a: 0.18 m for
-  /// a 0.53 m walker, its centre 0.17 m short). The size never shrinks once frozen.
+  /// only, so a size frozen during a partial occlusion was too small for good, and so was the
+  /// bias correction of the centre. The size never shrinks once frozen.
   bool size_fix_growth = true;
   /// Measure each detection from the detector's own box (`Detection::raw_box`, the mean surface
   /// points of this depth image) instead of the box refined against the occupancy map. The map
   /// confirms a voxel only after repeated hits (two at prob_hit 0.7, prob_occupied 0.8) and
   /// quantises to its resolution, so the support of a moving surface lags at its leading edge
-  /// and advances in voxel steps: at 1.1 m/s and 0.1 m voxels the refined box's centre saw-tooths
-  /// by up to 5 cm with a three-frame period (docs/tracker.md, "Measurement"). No choice
-  /// to validate: both are boxes of the same detection.
+  /// and advances in voxel steps, so the refined box's centre saw-tooths (docs/tracker.md,
+  /// "Measurement"). No choice to validate: both are boxes of the same detection.
   bool measure_raw_box = true;
   /// Keep a step of the frozen size from reading as motion. The near-surface bias correction
   /// moves a detection's centre away from the camera by half the depth the box misses, which
   /// depends on the estimated full size; when the size is frozen or raised (`size_fix_growth`)
   /// every corrected centre from then on moves by up to half the step although the obstacle did
-  /// not (env_a: 0.18 -> 0.33 -> 0.47 m, 7 cm jumps, 0.3-0.4 m/s velocity error for half a
-  /// second). With this on, the first detection corrected with the new size is also corrected
-  /// with the previous one, and the filter's position, the position history and the last
-  /// measured position move by the difference before the update (docs/tracker.md, "part 3").
-  /// The per-frame footprint of a track whose size is not frozen yet is left alone: it is
-  /// detection noise, not a re-estimate. No value to validate.
+  /// not, and the filter reads the jump as motion. With this on, the first detection corrected with
+  /// the new size is also corrected with the previous one, and the filter's position, the position
+  /// history and the last measured position move by the difference before the update
+  /// (docs/tracker.md, "Measurement"). The per-frame footprint of a track whose size is not frozen
+  /// yet is left alone: it is detection noise, not a re-estimate. No value to validate.
   bool compensate_size_steps = true;
   /// Measure a detection whose image box is cut on one side (by the left or right image border,
   /// within `image_margin`, or by a nearer detection whose image box reaches over that edge
@@ -128,13 +127,12 @@ struct TrackerConfig {
   /// centre across the viewing ray is put half the track's width estimate inside that edge, and
   /// the width replaces the cut footprint in the bias correction while the size is not frozen.
   /// The visible part of a walker stepping out of the image or from behind a crate slides with
-  /// the cut (env_a: 0.2 m over 1.5 s, 0.2-0.4 m/s velocity error). The width estimate is the
+  /// the cut, and its centre with it. The width estimate is the
   /// mean footprint of the track's uncut, in-view frames within `size_fix_max_depth` (or the
   /// frozen size, if larger); without one, and for boxes longer than `max_round_footprint`,
   /// the detection is measured as before. A change of this model (a cut starts or ends, the
-  /// width changes) shifts the track's reference like a size step. Off by default: env_a seed 1
-  /// velocity 0.098 -> 0.088 m/s, but seed 2 unchanged and env_b seed 1 0.029 -> 0.031
-  /// (docs/tracker.md, "part 3").
+  /// width changes) shifts the track's reference like a size step. Off by default: measured, it
+  /// did not improve every scene (docs/notes/tracker-accuracy-3-velocity.md).
   bool measure_cut_from_visible_edge = false;
   /// Image columns between a detection's edge and a nearer detection's box for the nearer one to
   /// count as cutting that edge (`measure_cut_from_visible_edge`). At least 0.

@@ -1,7 +1,8 @@
 // UMapDetector: obstacle proposals from one depth image via the U map (per-column depth
 // histograms). Thresholded U-map cells form segments per bin row, segments overlapping across
 // adjacent bins form groups, and each group's columns + depth band give a pixel region whose
-// back-projected points bound a 3-D box (camera frame, then map frame via all 8 corners).
+// back-projected points bound a 3-D box (map frame: from the mean surface points of its columns
+// and rows by default, or the 8 transformed corners of the camera-frame box).
 #pragma once
 
 #include <array>

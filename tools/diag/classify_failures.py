@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Failing Markov predictions by cause, from dynamap-predict-diag CSVs (docs/predictor.md).
+"""Failing Markov predictions by cause, from dynamap-predict-diag CSVs
+(docs/notes/predictor-failures-2-free-choice.md).
 
 usage: classify_failures.py diag_corridor.csv diag_env_a.csv ...  -> a Markdown table
 

@@ -157,7 +157,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.kalman.q_velocity),
       DYNAMAP_PARAM(tracker.kalman.r_position),
       DYNAMAP_PARAM(tracker.kalman.r_velocity),
-      // "cv" is the original filter (DESIGN.md), "imm" adds the coordinated turn.
+      // "cv" is the original filter (docs/design.md), "imm" adds the coordinated turn.
       enum_param<MotionModel>(
           "tracker.kalman.model", [](PipelineConfig& c) { return &c.tracker.kalman.model; },
           {{"cv", MotionModel::kConstantVelocity}, {"imm", MotionModel::kTurnImm}}),
@@ -213,7 +213,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(predictor.straight_return),
       DYNAMAP_PARAM(predictor.unknown_weight),
       DYNAMAP_PARAM(predictor.choose_free),
-      // DESIGN.md §4.6's update is "compound"; the others: markov_predictor.hpp, BeliefUpdate.
+      // The update of docs/design.md §4.6 is "compound"; the others: BeliefUpdate.
       enum_param<BeliefUpdate>("predictor.belief_update",
                                [](PipelineConfig& c) { return &c.predictor.belief_update; },
                                {{"compound", BeliefUpdate::kCompound},
