@@ -86,10 +86,10 @@ int main(int argc, char** argv) {
         "dynamap-overlay: %s + %s: %zu frames, %zu pictures + contact sheet (%zu tiles) in %s\n",
         o.seq.c_str(), o.result_dir.c_str(), s.frames, s.pictures, s.tiles,
         (o.out_dir.empty() ? join_path(o.result_dir, "overlay") : o.out_dir).c_str());
-    std::fprintf(
-        stderr,
-        "  depth missing or unreadable: %zu of the frames drawn (drawn as \"depth missing\")\n",
-        s.depth_missing);
+    std::fprintf(stderr,
+                 "  depth missing: %zu listed files absent in the %zu frames; %zu of the frames "
+                 "drawn had no readable depth (drawn as \"depth missing\")\n",
+                 s.depth_files_missing, s.frames, s.depth_missing);
     if (s.has_reference) {
       std::fprintf(stderr,
                    "  reference %s: %zu person-frames, %zu missed; %zu dynamic track-frames, "

@@ -2,6 +2,7 @@
 
 #include <cairo.h>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -203,6 +204,7 @@ constexpr Rgb kMissed{1.00, 0.72, 0.00};
 constexpr Rgb kText{0.10, 0.10, 0.10};
 constexpr Rgb kMissedText{0.85, 0.45, 0.00};  // readable on white
 constexpr Rgb kFalseText{0.75, 0.00, 0.75};
+constexpr Rgb kQuiet{0.55, 0.55, 0.55};
 
 void set(cairo_t* cr, const Rgb& c, double alpha = 1.0) {
   cairo_set_source_rgba(cr, c.r, c.g, c.b, alpha);
@@ -270,10 +272,10 @@ struct Style {
 };
 
 void stroke_rect(cairo_t* cr, double x0, double y0, double x1, double y1, const Rgb& c,
-                 double width, double dash) {
+                 double width, double dash, double halo = 0.75) {
   cairo_rectangle(cr, x0, y0, x1 - x0, y1 - y0);
   // A dark halo under every line keeps it visible on any colour of the depth map.
-  cairo_set_source_rgba(cr, 0, 0, 0, 0.75);
+  cairo_set_source_rgba(cr, 0, 0, 0, halo);
   cairo_set_line_width(cr, width + 2.0);
   cairo_stroke_preserve(cr);
   if (dash > 0) {
@@ -286,20 +288,44 @@ void stroke_rect(cairo_t* cr, double x0, double y0, double x1, double y1, const 
   cairo_set_dash(cr, nullptr, 0, 0);
 }
 
-// A label on a dark plate just above (x, y), or below it when there is no room above.
-void plate_label(cairo_t* cr, double x, double y, const std::string& s, const Rgb& c, double size,
-                 bool bold, double min_y, double max_x) {
-  const double w = text_width(cr, s, size, bold);
-  const double h = size + 4;
-  double top = y - h - 1;
-  if (top < min_y) top = y + 2;
-  x = std::min(x, max_x - w - 4);
-  cairo_set_source_rgba(cr, 0, 0, 0, 0.72);
-  cairo_rectangle(cr, x - 1, top, w + 6, h);
-  cairo_fill(cr);
-  set(cr, c);
-  text(cr, x + 2, top + size, s, size, bold);
-}
+// Labels on dark plates, moved up or down past the ones already placed so none hides another.
+class LabelPlacer {
+ public:
+  LabelPlacer(cairo_t* cr, double x0, double y0, double x1, double y1)
+      : cr_(cr), x0_(x0), y0_(y0), x1_(x1), y1_(y1) {}
+
+  // `top` is where the plate's top edge would like to be.
+  void place(double x, double top, const std::string& s, const Rgb& c, double size, bool bold) {
+    const double w = text_width(cr_, s, size, bold) + 6, h = size + 5;
+    x = std::clamp(x, x0_ + 1, std::max(x0_ + 1, x1_ - w - 1));
+    double best = std::clamp(top, y0_, y1_ - h);
+    for (int k = 0; k < 9; ++k) {
+      const int step = (k + 1) / 2 * (k % 2 ? -1 : 1);  // 0, -1, +1, -2, +2, ...
+      const double t = std::clamp(top + step * (h + 1), y0_, y1_ - h);
+      if (free(x, t, w, h)) {
+        best = t;
+        break;
+      }
+    }
+    placed_.push_back({x, best, w, h});
+    cairo_set_source_rgba(cr_, 0, 0, 0, 0.72);
+    cairo_rectangle(cr_, x, best, w, h);
+    cairo_fill(cr_);
+    set(cr_, c);
+    text(cr_, x + 3, best + size, s, size, bold);
+  }
+
+ private:
+  bool free(double x, double y, double w, double h) const {
+    for (const auto& r : placed_) {
+      if (x < r[0] + r[2] && r[0] < x + w && y < r[1] + r[3] && r[1] < y + h) return false;
+    }
+    return true;
+  }
+  cairo_t* cr_;
+  double x0_, y0_, x1_, y1_;
+  std::vector<std::array<double, 4>> placed_;  // x, y, w, h
+};
 
 std::string speed_text(const Eigen::Vector3d& v) {
   char buf[32];
@@ -334,12 +360,20 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
   auto py = [&](double v) { return st.y + (v + 0.5) * st.scale; };
   const double lw = st.line;
   const double font = 13;
-  std::vector<std::function<void()>> labels;  // drawn last, over every line
+  struct Label {
+    double x, top;  // preferred top-left of the plate
+    std::string text;
+    Rgb colour;
+    bool bold;
+    int priority;  // placed in this order: missed, false dynamic, dynamic, static
+  };
+  std::vector<Label> labels;  // drawn last, over every line
+  const double plate_h = font + 5;
 
   for (const DetectionRow& d : f.detections) {
     // Inclusive pixel bounds: the rectangle covers pixels u0..u1.
     stroke_rect(cr, st.x + d.u0 * st.scale, st.y + d.v0 * st.scale, st.x + (d.u1 + 1) * st.scale,
-                st.y + (d.v1 + 1) * st.scale, kDetection, 1.0 * lw, 0);
+                st.y + (d.v1 + 1) * st.scale, kDetection, 1.0 * lw, 0, 0.5);
   }
   for (std::size_t i = 0; i < f.reference.size(); ++i) {
     const ObstacleRecord& r = f.reference[i];
@@ -352,7 +386,7 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
       cairo_save(cr);
       const double d[] = {2.0 * lw, 3.0 * lw};
       cairo_set_dash(cr, d, 2, 0);
-      set(cr, kReference, 0.55);
+      set(cr, kReference, 0.6);
       cairo_set_line_width(cr, 1.2 * lw);
       cairo_rectangle(cr, px(pr.u0), py(pr.v0), px(pr.u1) - px(pr.u0), py(pr.v1) - py(pr.v0));
       cairo_stroke(cr);
@@ -361,21 +395,26 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
       stroke_rect(cr, px(pr.u0), py(pr.v0), px(pr.u1), py(pr.v1), kReference, 2.0 * lw, 7 * lw);
     }
   }
-  for (std::size_t i = 0; i < f.tracks.size(); ++i) {
-    const TrackRow& t = f.tracks[i];
-    PixelRect pr;
-    if (!project_box(cam, f.pose, t.center, t.size, &pr)) continue;
-    const bool false_dyn = i < a.false_dynamic.size() && a.false_dynamic[i];
-    const Rgb c = false_dyn ? kFalse : t.dynamic ? kDynamic : kStatic;
-    const double width = (false_dyn ? 3.5 : t.dynamic ? 2.5 : 1.8) * lw;
-    stroke_rect(cr, px(pr.u0), py(pr.v0), px(pr.u1), py(pr.v1), c, width, 0);
-    if (!st.labels) continue;
-    std::string label = std::to_string(t.id);
-    if (t.dynamic) label += "  " + speed_text(t.velocity);
-    if (false_dyn) label = "FALSE DYN " + label;
-    const double lx = std::max(px(pr.u0), st.x + 2), ly = std::max(py(pr.v0), st.y);
-    labels.push_back(
-        [=] { plate_label(cr, lx, ly, label, c, font, false_dyn || t.dynamic, st.y, st.x + w); });
+  // Static tracks first and light, so the dynamic ones stay on top and catch the eye.
+  for (int pass = 0; pass < 2; ++pass) {
+    for (std::size_t i = 0; i < f.tracks.size(); ++i) {
+      const TrackRow& t = f.tracks[i];
+      if (t.dynamic != (pass == 1)) continue;
+      PixelRect pr;
+      if (!project_box(cam, f.pose, t.center, t.size, &pr)) continue;
+      const bool false_dyn = i < a.false_dynamic.size() && a.false_dynamic[i];
+      const Rgb c = false_dyn ? kFalse : t.dynamic ? kDynamic : kStatic;
+      const double width = (false_dyn ? 3.5 : t.dynamic ? 2.5 : 1.4) * lw;
+      stroke_rect(cr, px(pr.u0), py(pr.v0), px(pr.u1), py(pr.v1), c, width, 0,
+                  t.dynamic ? 0.75 : 0.45);
+      std::string label = std::to_string(t.id);
+      if (t.dynamic) label += "  " + speed_text(t.velocity);
+      if (false_dyn) label = "FALSE DYN " + label;
+      // Above the box; inside its top when the box starts at the image's top edge.
+      double top = py(pr.v0) - plate_h - 1;
+      if (top < st.y) top = std::max(py(pr.v0), st.y) + 2;
+      labels.push_back({px(pr.u0), top, label, c, t.dynamic, false_dyn ? 1 : t.dynamic ? 2 : 3});
+    }
   }
   // Missed people last: they matter most and must not hide under a track's box.
   for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
@@ -384,13 +423,19 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
     PixelRect pr;
     if (!project_box(cam, f.pose, r.center, r.size, &pr)) continue;
     stroke_rect(cr, px(pr.u0), py(pr.v0), px(pr.u1), py(pr.v1), kMissed, 4.0 * lw, 10 * lw);
-    if (!st.labels) continue;
-    const std::string label = "MISSED " + std::to_string(r.id) + "  " + speed_text(r.velocity);
-    const double lx = std::max(px(pr.u0), st.x + 2);
-    const double ly = std::min(py(pr.v1), st.y + h) + font + 8;  // below the box
-    labels.push_back([=] { plate_label(cr, lx, ly, label, kMissed, font, true, st.y, st.x + w); });
+    // Below the box (track labels go above); inside its bottom when it reaches the image's.
+    double top = py(pr.v1) + 3;
+    if (top + plate_h > st.y + h) top = std::min(py(pr.v1), st.y + h) - plate_h - 4;
+    labels.push_back({px(pr.u0), top,
+                      "MISSED ref " + std::to_string(r.id) + "  " + speed_text(r.velocity), kMissed,
+                      true, 0});
   }
-  for (const auto& l : labels) l();
+  if (st.labels) {
+    std::stable_sort(labels.begin(), labels.end(),
+                     [](const Label& x, const Label& y) { return x.priority < y.priority; });
+    LabelPlacer placer(cr, st.x, st.y, st.x + w, st.y + h);
+    for (const Label& l : labels) placer.place(l.x, l.top, l.text, l.colour, font, l.bold);
+  }
   cairo_restore(cr);
 }
 
@@ -509,9 +554,10 @@ std::vector<Run> count_runs(const OverlayFrame& f, const FrameAnalysis& a, bool 
   }
   if (long_form)
     rs.push_back({"   reference people " + n(a.reference_people) + "   ", kText, false});
-  rs.push_back({"missed " + n(a.missed), a.missed > 0 ? kMissedText : kText, a.missed > 0});
+  // Zeros grey, so the eye finds the non-zero counts.
+  rs.push_back({"missed " + n(a.missed), a.missed > 0 ? kMissedText : kQuiet, a.missed > 0});
   rs.push_back({"   false dyn " + n(a.false_dynamic_count),
-                a.false_dynamic_count > 0 ? kFalseText : kText, a.false_dynamic_count > 0});
+                a.false_dynamic_count > 0 ? kFalseText : kQuiet, a.false_dynamic_count > 0});
   return rs;
 }
 
@@ -650,9 +696,21 @@ void render_contact_sheet(const std::vector<OverlayFrame>& tiles, const CameraMo
     st.scale = scale;
     st.x = margin + static_cast<double>(k % columns) * (tile_w + gap);
     st.y = header_h + static_cast<double>(k / columns) * (tile_h + tile_caption + gap);
-    st.line = 0.6;
+    st.line = 0.8;
     st.labels = false;
     draw_view(cr, f, a, cam, o, st);
+    // A frame around tiles with a missed person (orange) or a false dynamic track (magenta,
+    // inside the orange one): the sheet's problem frames show from across the room.
+    double inset = 1.5;
+    for (const auto& [bad, colour] :
+         {std::pair{a.missed > 0, kMissed}, {a.false_dynamic_count > 0, kFalse}}) {
+      if (!bad) continue;
+      set(cr, colour);
+      cairo_set_line_width(cr, 3.0);
+      cairo_rectangle(cr, st.x + inset, st.y + inset, tile_w - 2 * inset, tile_h - 2 * inset);
+      cairo_stroke(cr);
+      inset += 3.0;
+    }
     const double cy = st.y + tile_h + 13;
     set(cr, kText);
     text(cr, st.x + 2, cy, "#" + std::to_string(f.index), 11.5, true);
@@ -791,6 +849,7 @@ RunSummary run_overlay(const RunOptions& o) {
     sum.missed_per_frame[i] = a.missed;
     sum.false_per_frame[i] = a.false_dynamic_count;
     sum.frames_after_result += f.after_result ? 1 : 0;
+    sum.depth_files_missing += file_exists(seq.frames[i].depth_path) ? 0 : 1;
   }
 
   if (o.every > 0) {

@@ -138,6 +138,7 @@ struct RunSummary {
   std::size_t tiles = 0;                  ///< thumbnails on the contact sheet
   std::size_t depth_missing = 0;          ///< frames drawn whose depth was missing or unreadable
   std::vector<std::string> depth_errors;  ///< the first few messages
+  std::size_t depth_files_missing = 0;    ///< listed frames (drawn or not) whose file is absent
   bool has_reference = false;
   bool has_detections = false;
   std::string reference_path;
