@@ -353,7 +353,7 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
   }
   if (!f.depth_ok) {
     set(cr, {0.85, 0.85, 0.85});
-    text(cr, st.x + 0.5 * w, st.y + 0.5 * h, "depth missing", st.labels ? 28 : 14, true, 0.5);
+    text(cr, st.x + 0.5 * w, st.y + 0.88 * h, "depth missing", st.labels ? 28 : 14, true, 0.5);
   }
   // Pixel centres are at integer projection coordinates; picture pixels cover [u, u+1).
   auto px = [&](double u) { return st.x + (u + 0.5) * st.scale; };
