@@ -216,7 +216,7 @@ TEST(OverlayAnalysis, MissedPeopleAndFalseDynamicTracksByTopViewDistance) {
               track(11, {-1.5, 0.5, 4}, true),  // near the slow obstacle 3: not false
               track(12, {8, 8, 3}, true),       // near nothing: false dynamic
               track(13, {-8, 8, 3}, false)};    // static: never false
-  const FrameAnalysis a = analyse_frame(f, test_camera(), OverlayOptions{});
+  const FrameAnalysis a = analyse_frame(f, OverlayOptions{});
   EXPECT_EQ(a.dynamic_tracks, 3);
   EXPECT_EQ(a.static_tracks, 1);
   EXPECT_EQ(a.reference_people, 2);
@@ -229,9 +229,15 @@ TEST(OverlayAnalysis, MissedPeopleAndFalseDynamicTracksByTopViewDistance) {
   EXPECT_EQ(a.reference[3], ReferenceKind::kOther);
   EXPECT_EQ(a.false_dynamic, (std::vector<bool>{false, false, true, false}));
 
+  // A frame later than the result's last stamp was never replayed: nothing is judged.
+  f.after_result = true;
+  const FrameAnalysis late = analyse_frame(f, OverlayOptions{});
+  EXPECT_EQ(late.missed + late.false_dynamic_count + late.reference_people, 0);
+  f.after_result = false;
+
   // Without a reference nothing is judged.
   f.has_reference = false;
-  const FrameAnalysis b = analyse_frame(f, test_camera(), OverlayOptions{});
+  const FrameAnalysis b = analyse_frame(f, OverlayOptions{});
   EXPECT_EQ(b.missed, 0);
   EXPECT_EQ(b.false_dynamic_count, 0);
   EXPECT_EQ(b.reference_people, 0);

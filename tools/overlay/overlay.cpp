@@ -146,10 +146,11 @@ double top_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 
 }  // namespace
 
-FrameAnalysis analyse_frame(const OverlayFrame& frame, const CameraModel& /*camera*/,
-                            const OverlayOptions& o) {
+FrameAnalysis analyse_frame(const OverlayFrame& frame, const OverlayOptions& o) {
   FrameAnalysis a;
   a.false_dynamic.assign(frame.tracks.size(), false);
+  // A frame the replay never reached has no tracks: judging it would call every person missed.
+  const bool judge = frame.has_reference && !frame.after_result;
   for (std::size_t i = 0; i < frame.tracks.size(); ++i) {
     const TrackRow& t = frame.tracks[i];
     if (!t.dynamic) {
@@ -157,7 +158,7 @@ FrameAnalysis analyse_frame(const OverlayFrame& frame, const CameraModel& /*came
       continue;
     }
     ++a.dynamic_tracks;
-    if (!frame.has_reference) continue;
+    if (!judge) continue;
     // Like dynamap-eval's precision: near any listed obstacle, counted or not, is right.
     const bool near =
         std::any_of(frame.reference.begin(), frame.reference.end(), [&](const ObstacleRecord& r) {
@@ -170,7 +171,7 @@ FrameAnalysis analyse_frame(const OverlayFrame& frame, const CameraModel& /*came
   }
   for (const ObstacleRecord& r : frame.reference) {
     const double depth = to_camera(frame.pose, r.center).z();
-    const bool counted = frame.has_reference && r.velocity.norm() >= o.moving_speed &&
+    const bool counted = judge && r.velocity.norm() >= o.moving_speed &&
                          r.visible >= o.min_visible && depth >= o.min_depth && depth <= o.max_depth;
     if (!counted) {
       a.reference.push_back(ReferenceKind::kOther);
@@ -249,8 +250,6 @@ Surface depth_surface(const OverlayFrame& f, const CameraModel& cam, const Overl
   unsigned char* data = cairo_image_surface_get_data(s.get());
   const int stride = cairo_image_surface_get_stride(s.get());
   const bool ok = f.depth_ok && f.depth.width == cam.width && f.depth.height == cam.height;
-  // One table lookup per raw depth value would be 64k entries; the colour of each distinct value
-  // is cheap enough to compute directly at 640x480.
   for (int v = 0; v < cam.height; ++v) {
     auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(v) * stride);
     for (int u = 0; u < cam.width; ++u) {
@@ -548,6 +547,10 @@ std::vector<Run> count_runs(const OverlayFrame& f, const FrameAnalysis& a, bool 
                       "   detections " + n(static_cast<int>(f.detections.size())),
                   kText, false});
   }
+  if (f.after_result) {
+    rs.push_back({long_form ? "   (not replayed: nothing judged)" : "not replayed", kQuiet, false});
+    return rs;
+  }
   if (!f.has_reference) {
     if (long_form) rs.push_back({"   (no reference: nothing judged)", kText, false});
     return rs;
@@ -593,7 +596,7 @@ PictureSize contact_sheet_size(const CameraModel& cam, std::size_t tiles, int co
 
 void render_overlay_frame(const OverlayFrame& f, const CameraModel& cam, const OverlayOptions& o,
                           const std::string& png_path) {
-  const FrameAnalysis a = analyse_frame(f, cam, o);
+  const FrameAnalysis a = analyse_frame(f, o);
   const PictureSize size = frame_picture_size(cam);
   Surface s = make_surface(size.width, size.height);
   Context ctx(cairo_create(s.get()), cairo_destroy);
@@ -608,7 +611,7 @@ void render_overlay_frame(const OverlayFrame& f, const CameraModel& cam, const O
   set(cr, kText);
   double x = text(cr, 8, cam.height + 21, frame_title(f), 15, true);
   std::string when = "   t " + f.stamp_text;
-  if (f.after_result) when += "   (after the result's last stamp: not replayed)";
+  if (f.after_result) when += "   after the result's last stamp";
   if (!f.depth_ok) when += "   depth missing";
   text(cr, x, cam.height + 21, when, 13);
   runs(cr, 8, cam.height + 43, count_runs(f, a, true), 13);
@@ -691,7 +694,7 @@ void render_contact_sheet(const std::vector<OverlayFrame>& tiles, const CameraMo
 
   for (std::size_t k = 0; k < tiles.size(); ++k) {
     const OverlayFrame& f = tiles[k];
-    const FrameAnalysis a = analyse_frame(f, cam, o);
+    const FrameAnalysis a = analyse_frame(f, o);
     Style st;
     st.scale = scale;
     st.x = margin + static_cast<double>(k % columns) * (tile_w + gap);
@@ -714,7 +717,7 @@ void render_contact_sheet(const std::vector<OverlayFrame>& tiles, const CameraMo
     const double cy = st.y + tile_h + 13;
     set(cr, kText);
     text(cr, st.x + 2, cy, "#" + std::to_string(f.index), 11.5, true);
-    if (f.has_reference) {
+    if (f.has_reference || f.after_result) {
       std::vector<Run> rs = count_runs(f, a, false);
       for (auto& r : rs) r.s = r.s.substr(r.s.find_first_not_of(' '));
       // Right-aligned: "missed N  false dyn M".
@@ -841,7 +844,7 @@ RunSummary run_overlay(const RunOptions& o) {
   sum.false_per_frame.assign(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
     const OverlayFrame f = frame_data(i);
-    const FrameAnalysis a = analyse_frame(f, cam, o.overlay);
+    const FrameAnalysis a = analyse_frame(f, o.overlay);
     sum.reference_people += a.reference_people;
     sum.missed += a.missed;
     sum.dynamic_tracks += a.dynamic_tracks;

@@ -97,8 +97,7 @@ struct FrameAnalysis {
 
 /// Classifies tracks and reference obstacles of one frame (top-view centre distances). Without a
 /// reference nothing is missed or false.
-FrameAnalysis analyse_frame(const OverlayFrame& frame, const CameraModel& camera,
-                            const OverlayOptions& options);
+FrameAnalysis analyse_frame(const OverlayFrame& frame, const OverlayOptions& options);
 
 /// Pixel sizes of the pictures (the layout is fixed; tests check the files against these).
 struct PictureSize {
