@@ -786,6 +786,19 @@ RunSummary run_overlay(const RunOptions& o) {
   std::int64_t last_result = std::numeric_limits<std::int64_t>::min();
   for (const auto& kv : tracks) last_result = std::max(last_result, kv.first);
 
+  // timing.csv has a row for every frame the replay processed, even one without any track, so
+  // it tells best where a replay stopped.
+  const std::string timing_path = join_path(o.result_dir, "timing.csv");
+  if (file_exists(timing_path)) {
+    const std::vector<std::string> lines = read_lines(timing_path);
+    for (std::size_t i = 1; i < lines.size(); ++i) {
+      if (strip_comment(lines[i]).empty()) continue;
+      const auto fields = split_csv(lines[i]);
+      last_result =
+          std::max(last_result, stamp_key(parse_double(fields[0], {timing_path, i + 1}, "stamp")));
+    }
+  }
+
   std::unordered_map<std::int64_t, std::vector<DetectionRow>> detections;
   const std::string det_path = join_path(o.result_dir, "detections.csv");
   if (file_exists(det_path)) {
