@@ -9,6 +9,8 @@
 #include <limits>
 #include <unordered_map>
 
+#include <cairo.h>
+
 #include "common/png_io.hpp"
 #include "common/sequence.hpp"
 #include "common/text_io.hpp"
@@ -256,6 +258,73 @@ struct Track {
   }
 };
 
+// Depth (grey, near = bright), points held free by the model (red) and labelled boxes (green).
+void write_overlay(const std::string& path, const Image16& depth, const CameraModel& cam,
+                   const PoseD& pose, const std::vector<Eigen::Vector3d>& free_points,
+                   const std::vector<const ObstacleRecord*>& rows) {
+  cairo_surface_t* s = cairo_image_surface_create(CAIRO_FORMAT_RGB24, depth.width, depth.height);
+  cairo_surface_flush(s);
+  unsigned char* data = cairo_image_surface_get_data(s);
+  const int stride = cairo_image_surface_get_stride(s);
+  for (int v = 0; v < depth.height; ++v) {
+    auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(v) * stride);
+    for (int u = 0; u < depth.width; ++u) {
+      const double z = depth.at(u, v) / cam.depth_factor;
+      const auto g =
+          z <= 0.0 ? 0u
+                   : static_cast<std::uint32_t>(std::clamp(255.0 * (1.0 - z / 8.0), 0.0, 255.0));
+      row[u] = z <= 0.0 ? 0x00400000u : (g << 16) | (g << 8) | g;
+    }
+  }
+  cairo_surface_mark_dirty(s);
+  cairo_t* cr = cairo_create(s);
+  const Eigen::Matrix3d Rt = pose.rotation.toRotationMatrix().transpose();
+  auto project = [&](const Eigen::Vector3d& w, double* u, double* v) {
+    const Eigen::Vector3d pc = Rt * (w - pose.translation);
+    if (pc.z() < 0.1) return false;
+    *u = cam.fx * pc.x() / pc.z() + cam.cx;
+    *v = cam.fy * pc.y() / pc.z() + cam.cy;
+    return true;
+  };
+  cairo_set_source_rgb(cr, 0.9, 0.1, 0.1);
+  for (const auto& p : free_points) {
+    double u, v;
+    if (project(p, &u, &v)) cairo_rectangle(cr, u - 1, v - 1, 2, 2);
+  }
+  cairo_fill(cr);
+  cairo_set_line_width(cr, 2.0);
+  for (const ObstacleRecord* r : rows) {
+    double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
+    bool ok = true;
+    for (int c = 0; c < 8 && ok; ++c) {
+      const Eigen::Vector3d off(c & 1 ? 0.5 : -0.5, c & 2 ? 0.5 : -0.5, c & 4 ? 0.5 : -0.5);
+      double u, v;
+      ok = project(r->center + off.cwiseProduct(r->size), &u, &v);
+      umin = std::min(umin, u);
+      umax = std::max(umax, u);
+      vmin = std::min(vmin, v);
+      vmax = std::max(vmax, v);
+    }
+    if (!ok) continue;
+    if (r->visible > 0.0) {
+      cairo_set_source_rgb(cr, 0.1, 0.9, 0.1);
+    } else {
+      cairo_set_source_rgb(cr, 0.1, 0.6, 0.9);  // interpolated
+    }
+    cairo_rectangle(cr, umin, vmin, umax - umin, vmax - vmin);
+    cairo_stroke(cr);
+    char buf[96];
+    std::snprintf(buf, sizeof(buf), "%d  %.1f m/s", r->id, r->velocity.head<2>().norm());
+    cairo_move_to(cr, std::max(2.0, umin + 3), std::max(14.0, vmin + 16));
+    cairo_set_font_size(cr, 14);
+    cairo_show_text(cr, buf);
+  }
+  cairo_destroy(cr);
+  const cairo_status_t st = cairo_surface_write_to_png(s, path.c_str());
+  cairo_surface_destroy(s);
+  if (st != CAIRO_STATUS_SUCCESS) throw ToolError(path + ": cannot write overlay PNG");
+}
+
 }  // namespace
 
 std::string describe(const LabelOptions& o) {
@@ -395,15 +464,10 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
     }
   }
 
-  // Pass 2: per frame, person-like clusters of points in space the model holds free.
-  std::vector<std::vector<Detection>> dets(nframes);
-  for (std::size_t f = 0; f < nframes; ++f) {
-    if (!usable[f]) continue;
-    const SequenceFrame& fr = seq.frames[f];
-    Image16 depth;
-    if (!load(f, &depth)) continue;  // read in pass 1 already: only a changing file fails here
-    const Eigen::Matrix3d R = fr.pose.rotation.toRotationMatrix();
-    const Eigen::Vector3d o = fr.pose.translation;
+  // Points of a frame in space the model holds free: the candidates of moving people.
+  auto free_points = [&](const Image16& depth, const PoseD& pose) {
+    const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
+    const Eigen::Vector3d o = pose.translation;
     std::vector<Eigen::Vector3d> pts;
     for (int v = 0; v < depth.height; v += opt.detect_stride) {
       for (int u = 0; u < depth.width; u += opt.detect_stride) {
@@ -420,6 +484,18 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
         pts.push_back(p);
       }
     }
+    return pts;
+  };
+
+  // Pass 2: per frame, person-like clusters of points in space the model holds free.
+  std::vector<std::vector<Detection>> dets(nframes);
+  for (std::size_t f = 0; f < nframes; ++f) {
+    if (!usable[f]) continue;
+    const SequenceFrame& fr = seq.frames[f];
+    Image16 depth;
+    if (!load(f, &depth)) continue;  // read in pass 1 already: only a changing file fails here
+    const Eigen::Vector3d o = fr.pose.translation;
+    const std::vector<Eigen::Vector3d> pts = free_points(depth, fr.pose);
     for (const auto& members : cluster_top_view(pts, opt.cell)) {
       if (static_cast<int>(members.size()) < opt.min_points) continue;
       std::vector<double> zs, xs, ys;
@@ -573,6 +649,21 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
                      return a.stamp != b.stamp ? a.stamp < b.stamp : a.id < b.id;
                    });
   sum.rows = result.rows.size();
+  if (opt.overlay_every > 0 && !opt.overlay_dir.empty()) {
+    make_directories(opt.overlay_dir, "cannot create overlay directory");
+    for (std::size_t f = 0; f < nframes; f += static_cast<std::size_t>(opt.overlay_every)) {
+      Image16 depth;
+      if (!usable[f] || !load(f, &depth)) continue;
+      std::vector<const ObstacleRecord*> here;
+      for (const auto& r : result.rows) {
+        if (r.stamp_text == seq.frames[f].stamp_text) here.push_back(&r);
+      }
+      char name[64];
+      std::snprintf(name, sizeof(name), "frame_%05zu.png", f);
+      write_overlay(join_path(opt.overlay_dir, name), depth, cam, seq.frames[f].pose,
+                    free_points(depth, seq.frames[f].pose), here);
+    }
+  }
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return result;
 }

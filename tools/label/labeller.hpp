@@ -41,6 +41,10 @@ struct LabelOptions {
   int velocity_half_window = 10;  ///< frames each side, local line fit for the velocity
   double min_radius = 0.15, max_radius = 0.35;  ///< m, clamp of the estimated body radius
   int max_frames = 0;                           ///< 0: all
+  /// Optional check by eye: every overlay_every-th frame, a PNG in overlay_dir with the depth
+  /// (grey), the points held free by the model (red) and the labelled boxes (green, with ids).
+  std::string overlay_dir;
+  int overlay_every = 0;
   /// Progress lines (stderr in the tool); may be empty.
   std::function<void(const std::string&)> progress;
 };

@@ -1,4 +1,4 @@
-// dynamap-label SEQ --out DIR [--max-frames N] [--quiet]
+// dynamap-label SEQ --out DIR [--max-frames N] [--quiet] [--overlays DIR [--overlay-every N]]
 // Offline reference labels of moving people from the depth data (docs/reference_labels.md).
 #include <cstdio>
 #include <cstdlib>
@@ -15,10 +15,14 @@ namespace {
 void usage(std::FILE* to) {
   std::fprintf(to,
                "usage: dynamap-label SEQ --out DIR [--max-frames N] [--quiet]\n"
+               "                     [--overlays DIR [--overlay-every N]]\n"
                "  Offline, non-causal reference labels of moving people in the depth sequence\n"
                "  SEQ (TUM layout, world z up, floor at z = 0): writes DIR/obstacles.txt and\n"
                "  DIR/tracks.csv (dynamic = 1, path = -1; for dynamap-eval SEQ DIR).\n"
                "  Missing or unreadable depth images are skipped and listed.\n"
+               "  --overlays DIR: every N-th frame (default 30) a PNG for checking by eye:\n"
+               "  depth, points held free by the static model (red), labelled boxes (green;\n"
+               "  blue when interpolated).\n"
                "  See docs/reference_labels.md.\n");
 }
 
@@ -45,6 +49,14 @@ int main(int argc, char** argv) {
         const long long n = parse_int(v, TextLocation{"--max-frames", 0}, "frame count");
         if (n < 0) throw ToolError("--max-frames must be >= 0, got " + v);
         opt.max_frames = static_cast<int>(n);
+      } else if (a == "--overlays") {
+        opt.overlay_dir = value();
+        if (opt.overlay_every <= 0) opt.overlay_every = 30;
+      } else if (a == "--overlay-every") {
+        const std::string v = value();
+        const long long n = parse_int(v, TextLocation{"--overlay-every", 0}, "frame step");
+        if (n <= 0) throw ToolError("--overlay-every must be > 0, got " + v);
+        opt.overlay_every = static_cast<int>(n);
       } else if (a == "--quiet") {
         quiet = true;
       } else if (!a.empty() && a[0] == '-') {
