@@ -328,21 +328,25 @@ void write_overlay(const std::string& path, const Image16& depth, const CameraMo
 }  // namespace
 
 std::string describe(const LabelOptions& o) {
-  char buf[640];
+  char buf[1400];
   std::snprintf(buf, sizeof(buf),
                 "static voxel model (%.2f m voxels, rays every %d px to %.1f m, hits vs free "
                 "passes per frame), dynamic points = voxel seen >= %d frames and occupied in "
-                "< %.2f of them, no neighbour occupied >= %.2f, z > floor + %.2f m, within "
-                "%.1f m (every %d px); top-view clusters (%.2f m cells) with >= %d points, top "
+                "< %.2f of them, no neighbour occupied >= %.2f, none within %.2f + %.3f r^2 behind "
+                "on the ray, z > floor + %.2f m, within "
+                "%.1f m (every %d px) with >= %d of 9 image neighbours free; top-view clusters "
+                "(%.2f m cells) with >= %d points, top "
                 ">= %.2f m, height >= %.2f m; tracks gated %.2f m, gaps <= %d frames "
-                "interpolated, >= %d detections, travel >= %.2f m; centre = visible-surface "
+                "interpolated, >= %d detections, travel >= %.2f m (cut by the sequence's ends: "
+                ">= %d detections, speed >= %.2f m/s); centre = visible-surface "
                 "centroid + (pi/4) r along the view ray (r = median half width, clamped "
                 "%.2f-%.2f m); position: line fit +-%d frames, velocity: line fit +-%d frames",
                 o.voxel, o.model_stride, o.max_range, o.min_observations, o.free_ratio,
-                o.static_ratio, o.min_point_height, o.detect_range, o.detect_stride, o.cell,
-                o.min_points, o.min_top, o.min_vertical_extent, o.gate, o.max_gap,
-                o.min_track_frames, o.min_travel, o.min_radius, o.max_radius,
-                o.position_half_window, o.velocity_half_window);
+                o.static_ratio, o.behind_check, o.behind_check_quadratic, o.min_point_height,
+                o.detect_range, o.detect_stride, o.min_free_neighbours, o.cell, o.min_points,
+                o.min_top, o.min_vertical_extent, o.gate, o.max_gap, o.min_track_frames,
+                o.min_travel, o.min_boundary_frames, o.min_boundary_speed, o.min_radius,
+                o.max_radius, o.position_half_window, o.velocity_half_window);
   return buf;
 }
 
@@ -464,24 +468,64 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
     }
   }
 
-  // Points of a frame in space the model holds free: the candidates of moving people.
+  // Depth noise grows with range: a far point can land well in front of the wall it belongs to.
+  // Such a point has a static voxel just behind it on its ray.
+  auto static_behind = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& p) {
+    const double r = (p - o).norm();
+    const Eigen::Vector3d dir = (p - o) / r;
+    const double reach = opt.behind_check + opt.behind_check_quadratic * r * r;
+    for (double s = 0.5 * opt.voxel; s <= reach; s += 0.5 * opt.voxel) {
+      int c[3];
+      if (grid.cell(p + s * dir, c) && state[grid.index(c[0], c[1], c[2])] == 2) return true;
+    }
+    return false;
+  };
+
+  // Points of a frame in space the model holds free: the candidates of moving people. Only
+  // points whose 3x3 image neighbourhood (at detect_stride) is mostly free count: depth noise
+  // leaves scattered free points on walls seen at grazing angles, a person is a solid region.
   auto free_points = [&](const Image16& depth, const PoseD& pose) {
     const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
     const Eigen::Vector3d o = pose.translation;
-    std::vector<Eigen::Vector3d> pts;
-    for (int v = 0; v < depth.height; v += opt.detect_stride) {
-      for (int u = 0; u < depth.width; u += opt.detect_stride) {
+    const int gw = (depth.width + opt.detect_stride - 1) / opt.detect_stride;
+    const int gh = (depth.height + opt.detect_stride - 1) / opt.detect_stride;
+    std::vector<std::uint8_t> is_free(static_cast<std::size_t>(gw) * gh, 0);
+    std::vector<Eigen::Vector3d> world(is_free.size());
+    for (int gv = 0; gv < gh; ++gv) {
+      for (int gu = 0; gu < gw; ++gu) {
+        const int u = gu * opt.detect_stride, v = gv * opt.detect_stride;
         const std::uint16_t d = depth.at(u, v);
         if (d == 0) continue;
         const double z = d / cam.depth_factor;
         const Eigen::Vector3d pc((u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z);
         const Eigen::Vector3d p = R * pc + o;
+        int c[3];
+        if (!grid.cell(p, c) || !dynamic_ok[grid.index(c[0], c[1], c[2])]) continue;
+        if (static_behind(o, p)) continue;
+        const std::size_t k = static_cast<std::size_t>(gv) * gw + gu;
+        is_free[k] = 1;
+        world[k] = p;
+      }
+    }
+    std::vector<Eigen::Vector3d> pts;
+    for (int gv = 0; gv < gh; ++gv) {
+      for (int gu = 0; gu < gw; ++gu) {
+        const std::size_t k = static_cast<std::size_t>(gv) * gw + gu;
+        if (!is_free[k]) continue;
+        const Eigen::Vector3d& p = world[k];
         if (p.z() < opt.floor_z + opt.min_point_height || (p - o).norm() > opt.detect_range) {
           continue;
         }
-        int c[3];
-        if (!grid.cell(p, c) || !dynamic_ok[grid.index(c[0], c[1], c[2])]) continue;
-        pts.push_back(p);
+        int count = 0;
+        for (int dv = -1; dv <= 1; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const int a = gu + du, b = gv + dv;
+            if (a >= 0 && b >= 0 && a < gw && b < gh) {
+              count += is_free[static_cast<std::size_t>(b) * gw + a];
+            }
+          }
+        }
+        if (count >= opt.min_free_neighbours) pts.push_back(p);
       }
     }
     return pts;
@@ -583,7 +627,10 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
 
   int next_id = 1;
   for (const Track& tr : tracks) {
-    if (static_cast<int>(tr.dets.size()) < opt.min_track_frames) continue;
+    const int ndet = static_cast<int>(tr.dets.size());
+    const bool at_boundary = tr.dets.front().frame <= opt.max_gap ||
+                             tr.dets.back().frame >= static_cast<int>(nframes) - 1 - opt.max_gap;
+    if (ndet < (at_boundary ? opt.min_boundary_frames : opt.min_track_frames)) continue;
     std::vector<double> widths, tops;
     for (const auto& d : tr.dets) {
       widths.push_back(d.half_width);
@@ -620,7 +667,14 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
       bmin = bmin.cwiseMin(p);
       bmax = bmax.cwiseMax(p);
     }
-    if ((bmax - bmin).norm() < opt.min_travel) continue;  // stood still: static world
+    // Moving only: people who stand are static world. A track cut short by the sequence's
+    // start or end may instead show walking by its fitted speed.
+    bool moving = (bmax - bmin).norm() >= opt.min_travel;
+    if (!moving && at_boundary && ndet < opt.min_track_frames) {
+      Eigen::Vector2d a, b;
+      moving = line_fit(t, pos, 0, len - 1, t[0], &a, &b) && b.norm() >= opt.min_boundary_speed;
+    }
+    if (!moving) continue;
     const int id = next_id++;
     ++sum.tracks;
     for (int k = 0; k < len; ++k) {

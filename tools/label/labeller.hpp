@@ -15,30 +15,39 @@ namespace dynamap::tools::label {
 struct LabelOptions {
   // Pass 1: static model (per-voxel hit / free counts over the whole sequence).
   double voxel = 0.1;        ///< m, edge of the dense voxel grid
-  double max_range = 7.0;    ///< m, depth beyond this carves free space only up to here
+  double max_range = 8.0;    ///< m, depth beyond this carves free space only up to here
   int model_stride = 4;      ///< pixel step of the model's rays
   double end_margin = 0.15;  ///< m, free space stops this short of the measured point
   double max_extent = 40.0;  ///< m, cap of the grid's x / y extent
   double floor_z = 0.0;      ///< world z of the floor (z up)
   // Pass 2: dynamic points and person-like clusters.
-  int detect_stride = 2;             ///< pixel step of the per-frame points
-  double detect_range = 6.0;         ///< m, farther points are not labelled
-  double min_point_height = 0.2;     ///< m above the floor
-  int min_observations = 8;          ///< frames a voxel must be seen in before it can be "free"
-  double free_ratio = 0.25;          ///< hits / observations below this: space held free
-  double static_ratio = 0.5;         ///< a neighbour this often hit vetoes the point (walls)
-  double cell = 0.1;                 ///< m, top-view clustering cell
-  int min_points = 40;               ///< points (at detect_stride) of a person-like cluster
-  double min_top = 0.9;              ///< m above the floor: highest point of a person
+  int detect_stride = 2;          ///< pixel step of the per-frame points
+  double detect_range = 7.0;      ///< m (along the ray: 5 m deep at the image corner is ~6.5 m)
+  double min_point_height = 0.2;  ///< m above the floor
+  int min_observations = 8;       ///< frames a voxel must be seen in before it can be "free"
+  double free_ratio = 0.25;       ///< hits / observations below this: space held free
+  double static_ratio = 0.5;      ///< a neighbour this often hit vetoes the point (walls)
+  /// A static voxel on the ray within behind_check + behind_check_quadratic * range^2 behind
+  /// a point makes it depth noise of that surface, not a person.
+  double behind_check = 0.1;              ///< m
+  double behind_check_quadratic = 0.008;  ///< 1/m
+  int min_free_neighbours = 5;  ///< of the 3x3 image neighbours (at detect_stride), self included
+  double cell = 0.1;            ///< m, top-view clustering cell
+  int min_points = 40;          ///< points (at detect_stride) of a person-like cluster
+  double min_top = 0.9;         ///< m above the floor: highest point of a person
   double min_vertical_extent = 0.5;  ///< m
   double max_footprint = 1.6;        ///< m, larger top-view clusters are not one or two people
   // Pass 3: tracks.
-  double gate = 0.5;              ///< m per associated frame (+0.1 m per missed frame)
-  int max_gap = 12;               ///< frames filled by interpolation (visible 0)
-  int min_track_frames = 15;      ///< detections of a kept track
-  double min_travel = 0.8;        ///< m, diagonal of the track's top-view bounding box
-  int position_half_window = 4;   ///< frames each side, local line fit for the position
-  int velocity_half_window = 10;  ///< frames each side, local line fit for the velocity
+  double gate = 0.5;          ///< m per associated frame (+0.1 m per missed frame)
+  int max_gap = 12;           ///< frames filled by interpolation (visible 0)
+  int min_track_frames = 15;  ///< detections of a kept track
+  double min_travel = 0.8;    ///< m, diagonal of the track's top-view bounding box
+  /// Tracks cut by the start or end of the sequence (first / last detection within max_gap
+  /// frames of it) are kept with fewer detections when their fitted speed shows walking.
+  int min_boundary_frames = 6;
+  double min_boundary_speed = 0.4;  ///< m/s
+  int position_half_window = 4;     ///< frames each side, local line fit for the position
+  int velocity_half_window = 10;    ///< frames each side, local line fit for the velocity
   double min_radius = 0.15, max_radius = 0.35;  ///< m, clamp of the estimated body radius
   int max_frames = 0;                           ///< 0: all
   /// Optional check by eye: every overlay_every-th frame, a PNG in overlay_dir with the depth
