@@ -121,6 +121,19 @@ class VoxelGrid {
   std::vector<std::uint16_t> hits_, passes_, hit_stamp_, pass_stamp_;
 };
 
+// True when the pixel and its four neighbours `step` pixels away (those inside the image) have no
+// depth: a solid no-return region (nothing within the sensor's range), not an edge dropout.
+bool no_return_block(const Image16& depth, int u, int v, int step) {
+  const int du[4] = {step, -step, 0, 0}, dv[4] = {0, 0, step, -step};
+  for (int k = 0; k < 4; ++k) {
+    const int a = u + du[k], b = v + dv[k];
+    if (a >= 0 && b >= 0 && a < depth.width && b < depth.height && depth.at(a, b) != 0) {
+      return false;
+    }
+  }
+  return depth.at(u, v) == 0;
+}
+
 // A person-like cluster of dynamic points in one frame.
 struct Detection {
   int frame = 0;
@@ -330,8 +343,9 @@ void write_overlay(const std::string& path, const Image16& depth, const CameraMo
 std::string describe(const LabelOptions& o) {
   char buf[1400];
   std::snprintf(buf, sizeof(buf),
-                "static voxel model (%.2f m voxels, rays every %d px to %.1f m, hits vs free "
-                "passes per frame), dynamic points = voxel seen >= %d frames and occupied in "
+                "static voxel model (%.2f m voxels, rays every %d px to %.1f m, solid no-return "
+                "regions carved to %.1f m, hits vs free passes per frame), dynamic points = voxel "
+                "seen >= %d frames and occupied in "
                 "< %.2f of them, no neighbour occupied >= %.2f, none within %.2f + %.3f r^2 behind "
                 "on the ray, z > floor + %.2f m, within "
                 "%.1f m (every %d px) with >= %d of 9 image neighbours free; top-view clusters "
@@ -341,12 +355,12 @@ std::string describe(const LabelOptions& o) {
                 ">= %d detections, speed >= %.2f m/s); centre = visible-surface "
                 "centroid + (pi/4) r along the view ray (r = median half width, clamped "
                 "%.2f-%.2f m); position: line fit +-%d frames, velocity: line fit +-%d frames",
-                o.voxel, o.model_stride, o.max_range, o.min_observations, o.free_ratio,
-                o.static_ratio, o.behind_check, o.behind_check_quadratic, o.min_point_height,
-                o.detect_range, o.detect_stride, o.min_free_neighbours, o.cell, o.min_points,
-                o.min_top, o.min_vertical_extent, o.gate, o.max_gap, o.min_track_frames,
-                o.min_travel, o.min_boundary_frames, o.min_boundary_speed, o.min_radius,
-                o.max_radius, o.position_half_window, o.velocity_half_window);
+                o.voxel, o.model_stride, o.max_range, o.no_return_range, o.min_observations,
+                o.free_ratio, o.static_ratio, o.behind_check, o.behind_check_quadratic,
+                o.min_point_height, o.detect_range, o.detect_stride, o.min_free_neighbours, o.cell,
+                o.min_points, o.min_top, o.min_vertical_extent, o.gate, o.max_gap,
+                o.min_track_frames, o.min_travel, o.min_boundary_frames, o.min_boundary_speed,
+                o.min_radius, o.max_radius, o.position_half_window, o.velocity_half_window);
   return buf;
 }
 
@@ -413,7 +427,14 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
     for (int v = opt.model_stride / 2; v < depth.height; v += opt.model_stride) {
       for (int u = opt.model_stride / 2; u < depth.width; u += opt.model_stride) {
         const std::uint16_t d = depth.at(u, v);
-        if (d == 0) continue;
+        if (d == 0) {
+          if (opt.no_return_range > 0.0 && no_return_block(depth, u, v, opt.model_stride)) {
+            const Eigen::Vector3d ray =
+                R * Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+            grid.carve(o, ray.normalized(), opt.no_return_range, stamp);
+          }
+          continue;
+        }
         const double z = d / cam.depth_factor;
         const Eigen::Vector3d pc((u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z);
         const Eigen::Vector3d p = R * pc + o;

@@ -14,9 +14,13 @@ namespace dynamap::tools::label {
 
 struct LabelOptions {
   // Pass 1: static model (per-voxel hit / free counts over the whole sequence).
-  double voxel = 0.1;        ///< m, edge of the dense voxel grid
-  double max_range = 8.0;    ///< m, depth beyond this carves free space only up to here
-  int model_stride = 4;      ///< pixel step of the model's rays
+  double voxel = 0.1;      ///< m, edge of the dense voxel grid
+  double max_range = 8.0;  ///< m, depth beyond this carves free space only up to here
+  int model_stride = 4;    ///< pixel step of the model's rays
+  /// Pixels without depth inside a no-depth block (their 4 neighbours at model_stride too) say
+  /// "nothing within range" (the simulator; Kinect beyond its range): carve free space to here.
+  /// Isolated dropouts at edges are not used. 0: off.
+  double no_return_range = 8.0;
   double end_margin = 0.15;  ///< m, free space stops this short of the measured point
   double max_extent = 40.0;  ///< m, cap of the grid's x / y extent
   double floor_z = 0.0;      ///< world z of the floor (z up)
