@@ -371,9 +371,12 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
   };
   LabelResult result;
   LabelSummary& sum = result.summary;
-  const Sequence seq = read_sequence(seq_dir);
+  Sequence seq = read_sequence(seq_dir);
   sum.listed = seq.images_listed;
   sum.without_pose = seq.images_without_pose;
+  const auto first =
+      std::min(seq.frames.size(), static_cast<std::size_t>(std::max(0, opt.first_frame)));
+  seq.frames.erase(seq.frames.begin(), seq.frames.begin() + static_cast<std::ptrdiff_t>(first));
   std::size_t nframes = seq.frames.size();
   if (opt.max_frames > 0) nframes = std::min(nframes, static_cast<std::size_t>(opt.max_frames));
   sum.frames = nframes;

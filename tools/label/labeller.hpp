@@ -53,6 +53,7 @@ struct LabelOptions {
   int position_half_window = 4;     ///< frames each side, local line fit for the position
   int velocity_half_window = 10;    ///< frames each side, local line fit for the velocity
   double min_radius = 0.15, max_radius = 0.35;  ///< m, clamp of the estimated body radius
+  int first_frame = 0;                          ///< frames (with a pose) skipped at the start
   int max_frames = 0;                           ///< 0: all
   /// Optional check by eye: every overlay_every-th frame, a PNG in overlay_dir with the depth
   /// (grey), the points held free by the model (red) and the labelled boxes (green, with ids).

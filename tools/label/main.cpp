@@ -1,5 +1,6 @@
-// dynamap-label SEQ --out DIR [--max-frames N] [--quiet] [--overlays DIR [--overlay-every N]]
-// Offline reference labels of moving people from the depth data (docs/reference_labels.md).
+// dynamap-label SEQ --out DIR [--first-frame N] [--max-frames N] [--quiet] [--overlays DIR
+// [--overlay-every N]] Offline reference labels of moving people from the depth data
+// (docs/reference_labels.md).
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -14,11 +15,12 @@ namespace {
 
 void usage(std::FILE* to) {
   std::fprintf(to,
-               "usage: dynamap-label SEQ --out DIR [--max-frames N] [--quiet]\n"
+               "usage: dynamap-label SEQ --out DIR [--first-frame N] [--max-frames N] [--quiet]\n"
                "                     [--overlays DIR [--overlay-every N]]\n"
                "  Offline, non-causal reference labels of moving people in the depth sequence\n"
                "  SEQ (TUM layout, world z up, floor at z = 0): writes DIR/obstacles.txt and\n"
                "  DIR/tracks.csv (dynamic = 1, path = -1; for dynamap-eval SEQ DIR).\n"
+               "  --first-frame N skips the first N frames that have a pose.\n"
                "  Missing or unreadable depth images are skipped and listed.\n"
                "  --overlays DIR: every N-th frame (default 30) a PNG for checking by eye:\n"
                "  depth, points held free by the static model (red), labelled boxes (green;\n"
@@ -49,6 +51,11 @@ int main(int argc, char** argv) {
         const long long n = parse_int(v, TextLocation{"--max-frames", 0}, "frame count");
         if (n < 0) throw ToolError("--max-frames must be >= 0, got " + v);
         opt.max_frames = static_cast<int>(n);
+      } else if (a == "--first-frame") {
+        const std::string v = value();
+        const long long n = parse_int(v, TextLocation{"--first-frame", 0}, "frame index");
+        if (n < 0) throw ToolError("--first-frame must be >= 0, got " + v);
+        opt.first_frame = static_cast<int>(n);
       } else if (a == "--overlays") {
         opt.overlay_dir = value();
         if (opt.overlay_every <= 0) opt.overlay_every = 30;
