@@ -198,36 +198,40 @@ double estimate_visible(const Image16& depth, const CameraModel& cam, const Pose
 // Top-view connected components (8-neighbour) of points on a cell grid.
 std::vector<std::vector<int>> cluster_top_view(const std::vector<Eigen::Vector3d>& pts,
                                                double cell) {
-  std::unordered_map<std::int64_t, std::vector<int>> cells;
-  auto key = [](std::int64_t i, std::int64_t j) { return (i << 32) ^ (j & 0xFFFFFFFFll); };
+  // Cell (i, j) packed into 64 bits through unsigned casts (no shifts of negative numbers).
+  auto key = [](std::int32_t i, std::int32_t j) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(i)) << 32) |
+           static_cast<std::uint32_t>(j);
+  };
+  std::unordered_map<std::uint64_t, std::vector<int>> cells;
   for (std::size_t n = 0; n < pts.size(); ++n) {
-    const auto i = static_cast<std::int64_t>(std::floor(pts[n].x() / cell));
-    const auto j = static_cast<std::int64_t>(std::floor(pts[n].y() / cell));
+    const auto i = static_cast<std::int32_t>(std::floor(pts[n].x() / cell));
+    const auto j = static_cast<std::int32_t>(std::floor(pts[n].y() / cell));
     cells[key(i, j)].push_back(static_cast<int>(n));
   }
-  std::unordered_map<std::int64_t, bool> done;
+  std::unordered_map<std::uint64_t, bool> done;
   std::vector<std::vector<int>> clusters;
-  for (const auto& [k0, members0] : cells) {
-    if (done[k0]) continue;
-    std::vector<std::int64_t> stack{k0};
-    done[k0] = true;
+  for (const auto& entry : cells) {
+    if (done[entry.first]) continue;
+    std::vector<std::uint64_t> stack{entry.first};
+    done[entry.first] = true;
     std::vector<int> members;
     while (!stack.empty()) {
-      const std::int64_t k = stack.back();
+      const std::uint64_t k = stack.back();
       stack.pop_back();
-      const auto& m = cells[k];
+      const auto& m = cells.at(k);
       members.insert(members.end(), m.begin(), m.end());
-      const std::int64_t i = k >> 32, j = static_cast<std::int32_t>(k & 0xFFFFFFFFll);
-      for (std::int64_t di = -1; di <= 1; ++di) {
-        for (std::int64_t dj = -1; dj <= 1; ++dj) {
-          const std::int64_t nk = key(i + di, j + dj);
+      const auto i = static_cast<std::int32_t>(static_cast<std::uint32_t>(k >> 32));
+      const auto j = static_cast<std::int32_t>(static_cast<std::uint32_t>(k & 0xFFFFFFFFull));
+      for (std::int32_t di = -1; di <= 1; ++di) {
+        for (std::int32_t dj = -1; dj <= 1; ++dj) {
+          const std::uint64_t nk = key(i + di, j + dj);
           if (cells.count(nk) == 0 || done[nk]) continue;
           done[nk] = true;
           stack.push_back(nk);
         }
       }
     }
-    (void)members0;
     clusters.push_back(std::move(members));
   }
   return clusters;
@@ -301,7 +305,7 @@ void write_overlay(const std::string& path, const Image16& depth, const CameraMo
   };
   cairo_set_source_rgb(cr, 0.9, 0.1, 0.1);
   for (const auto& p : free_points) {
-    double u, v;
+    double u = 0.0, v = 0.0;
     if (project(p, &u, &v)) cairo_rectangle(cr, u - 1, v - 1, 2, 2);
   }
   cairo_fill(cr);
@@ -311,8 +315,9 @@ void write_overlay(const std::string& path, const Image16& depth, const CameraMo
     bool ok = true;
     for (int c = 0; c < 8 && ok; ++c) {
       const Eigen::Vector3d off(c & 1 ? 0.5 : -0.5, c & 2 ? 0.5 : -0.5, c & 4 ? 0.5 : -0.5);
-      double u, v;
+      double u = 0.0, v = 0.0;
       ok = project(r->center + off.cwiseProduct(r->size), &u, &v);
+      if (!ok) break;  // box reaches behind the camera: not drawn
       umin = std::min(umin, u);
       umax = std::max(umax, u);
       vmin = std::min(vmin, v);
