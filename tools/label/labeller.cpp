@@ -379,6 +379,11 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
   Sequence seq = read_sequence(seq_dir);
   sum.listed = seq.images_listed;
   sum.without_pose = seq.images_without_pose;
+  if (seq.camera.world_z_up != 1) {
+    sum.warnings.push_back(join_path(seq_dir, "camera.txt") +
+                           ": no 'world_z_up 1': the floor is assumed at z = " +
+                           std::to_string(opt.floor_z) + " of the gravity-aligned world");
+  }
   const auto first =
       std::min(seq.frames.size(), static_cast<std::size_t>(std::max(0, opt.first_frame)));
   seq.frames.erase(seq.frames.begin(), seq.frames.begin() + static_cast<std::ptrdiff_t>(first));

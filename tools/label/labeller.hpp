@@ -64,14 +64,15 @@ struct LabelOptions {
 };
 
 struct LabelSummary {
-  std::size_t listed = 0;            ///< lines of depth.txt
-  std::size_t without_pose = 0;      ///< images without a pose (skipped by read_sequence)
-  std::size_t frames = 0;            ///< frames with a pose considered (after --max-frames)
-  std::size_t frames_used = 0;       ///< of which the depth image could be read
-  std::vector<std::string> skipped;  ///< depth files missing or unreadable (with the reason)
-  std::size_t detections = 0;        ///< person-like clusters over all frames
-  std::size_t tracks = 0;            ///< moving people-tracks kept
-  std::size_t rows = 0;              ///< rows written (observed + interpolated)
+  std::size_t listed = 0;             ///< lines of depth.txt
+  std::size_t without_pose = 0;       ///< images without a pose (skipped by read_sequence)
+  std::size_t frames = 0;             ///< frames with a pose considered (after --max-frames)
+  std::size_t frames_used = 0;        ///< of which the depth image could be read
+  std::vector<std::string> skipped;   ///< depth files missing or unreadable (with the reason)
+  std::vector<std::string> warnings;  ///< e.g. no world_z_up 1: the floor may not be at floor_z
+  std::size_t detections = 0;         ///< person-like clusters over all frames
+  std::size_t tracks = 0;             ///< moving people-tracks kept
+  std::size_t rows = 0;               ///< rows written (observed + interpolated)
   std::size_t interpolated_rows = 0;
   double seconds = 0.0;
 };

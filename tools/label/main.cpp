@@ -91,6 +91,7 @@ int main(int argc, char** argv) {
                  "files skipped, %zu people-tracks, %zu rows (%zu interpolated) in %s, %.1f s\n",
                  seq.c_str(), s.frames, s.listed, s.without_pose, s.skipped.size(), s.tracks,
                  s.rows, s.interpolated_rows, out.c_str(), s.seconds);
+    for (const auto& w : s.warnings) std::fprintf(stderr, "  warning: %s\n", w.c_str());
     for (const auto& why : s.skipped) std::fprintf(stderr, "  skipped: %s\n", why.c_str());
     return 0;
   } catch (const std::exception& e) {
