@@ -37,8 +37,8 @@ std::vector<ObstacleRecord> read_obstacles(const std::string& path) {
   return out;
 }
 
-void write_obstacles_header(std::ostream& out) {
-  out << "# ground-truth obstacles (world frame, axis-aligned boxes; m, m/s)\n"
+void write_obstacles_header(std::ostream& out, const char* what) {
+  out << "# " << what << " (world frame, axis-aligned boxes; m, m/s)\n"
       << "# timestamp id x y z vx vy vz sx sy sz visible\n";
 }
 

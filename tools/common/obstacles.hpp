@@ -25,7 +25,8 @@ struct ObstacleRecord {
 /// (too few fields, non-numbers, visible outside [0,1], negative sizes) throw "file:line: ...".
 std::vector<ObstacleRecord> read_obstacles(const std::string& path);
 
-void write_obstacles_header(std::ostream& out);
+/// The column comment; `what` says what the boxes are (the simulator's truth, or a reference).
+void write_obstacles_header(std::ostream& out, const char* what = "ground-truth obstacles");
 /// One line; the stamp is written as stamp_text when set, else with 6 decimals.
 void write_obstacle_line(std::ostream& out, const ObstacleRecord& r);
 

@@ -768,7 +768,7 @@ void write_labels(const std::string& out_dir, const LabelResult& result,
       << describe(options) << "\n"
       << "# visible = estimated share of the box's image rectangle inside the image and not "
          "hidden by nearer depth; 0 on interpolated frames\n";
-  write_obstacles_header(obs);
+  write_obstacles_header(obs, "reference obstacles (moving people found in the depth data)");
   csv << "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n";
   for (const ObstacleRecord& r : result.rows) {
     write_obstacle_line(obs, r);
