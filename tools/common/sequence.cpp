@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iomanip>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
 #include "common/text_io.hpp"
@@ -155,6 +156,164 @@ CameraModel bonn_camera() {
   return cam;
 }
 
+namespace {
+
+// splitmix64: a small deterministic generator, so that the floor fit (and every tool's world)
+// is the same on every run.
+std::uint64_t next_random(std::uint64_t& state) {
+  std::uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+// Moves every pose (and the frames' interpolated poses) by the rigid motion x -> R x + t.
+void transform_world(Sequence& seq, const Eigen::Quaterniond& r, const Eigen::Vector3d& t) {
+  auto apply = [&](PoseD& p) {
+    p.translation = r * p.translation + t;
+    p.rotation = (r * p.rotation).normalized();
+  };
+  for (StampedPose& p : seq.poses) apply(p.pose);
+  for (SequenceFrame& f : seq.frames) apply(f.pose);
+}
+
+// The floor of a gravity-aligned sequence: depth points of up to kFloorFrames readable frames
+// among the first ones, below the cameras, fitted with fit_floor_plane(); then the world is
+// rotated so the normal is +z and moved so the floor is z = 0.
+void level_on_floor(Sequence& seq) {
+  constexpr std::size_t kFloorFrames = 8;   // spread over the first kFloorSpan frames
+  constexpr std::size_t kFloorSpan = 120;   // 4 s at 30 Hz
+  constexpr int kPixelStep = 8;             // ~4800 points per 640x480 frame
+  constexpr std::size_t kMinInliers = 400;  // a floor seen, not a stray patch
+  const std::size_t span = std::min(kFloorSpan, seq.frames.size());
+  std::vector<Eigen::Vector3d> points;
+  double lowest_camera = 1e300;
+  for (std::size_t k = 0; k < kFloorFrames && span > 0; ++k) {
+    const SequenceFrame& f = seq.frames[k * span / kFloorFrames];
+    Image16 depth;
+    std::string problem;
+    if (try_load_depth(seq, f, &depth, &problem) != DepthProblem::kNone) continue;
+    lowest_camera = std::min(lowest_camera, f.pose.translation.z());
+    const Eigen::Matrix3d r = f.pose.rotation.toRotationMatrix();
+    for (int v = 0; v < depth.height; v += kPixelStep) {
+      for (int u = 0; u < depth.width; u += kPixelStep) {
+        const double z = depth.at(u, v) / seq.camera.depth_factor;
+        if (z < 0.3 || z > 6.0) continue;  // beyond ~6 m a Kinect-class floor is too noisy
+        const Eigen::Vector3d c((u - seq.camera.cx) * z / seq.camera.fx,
+                                (v - seq.camera.cy) * z / seq.camera.fy, z);
+        points.push_back(r * c + f.pose.translation);
+      }
+    }
+  }
+  if (points.empty()) {
+    seq.warnings.push_back(seq.dir +
+                           ": no readable depth in the first frames: floor not found, "
+                           "the world is only gravity-aligned (origin at the first pose)");
+    return;
+  }
+  Eigen::Vector3d normal;
+  double offset = 0.0;
+  // The floor is at least 0.3 m below the lowest camera (a camera lying on the floor is no use).
+  if (!fit_floor_plane(points, lowest_camera - 0.3, kMinInliers, &normal, &offset,
+                       &seq.floor_points)) {
+    seq.warnings.push_back(seq.dir +
+                           ": no floor plane found in the first frames' depth: the "
+                           "world is only gravity-aligned (origin at the first pose)");
+    return;
+  }
+  const Eigen::Quaterniond tilt =
+      Eigen::Quaterniond::FromTwoVectors(normal, Eigen::Vector3d::UnitZ());
+  // A floor point p (n.p = offset) goes to tilt * p, whose z is offset: move it down by that.
+  transform_world(seq, tilt, Eigen::Vector3d(0, 0, -offset));
+  seq.world_alignment = (tilt * seq.world_alignment).normalized();
+  seq.world_offset = Eigen::Vector3d(0, 0, -offset);
+  seq.floor_levelled = true;
+}
+
+}  // namespace
+
+bool fit_floor_plane(const std::vector<Eigen::Vector3d>& points, double max_height,
+                     std::size_t min_inliers, Eigen::Vector3d* normal, double* offset,
+                     std::size_t* inliers) {
+  constexpr double kInlierDistance = 0.03;  // m: Kinect-class noise at 1-4 m, small pose error
+  constexpr int kTrials = 300;
+  const double min_up = std::cos(30.0 * M_PI / 180.0);
+  std::vector<Eigen::Vector3d> low;
+  for (const Eigen::Vector3d& p : points) {
+    if (p.z() < max_height) low.push_back(p);
+  }
+  *inliers = 0;
+  if (low.size() < std::max<std::size_t>(min_inliers, 3)) return false;
+  std::uint64_t state = 0x5eed;
+  struct Candidate {
+    Eigen::Vector3d n;
+    double d;
+    std::size_t count;
+  };
+  std::vector<Candidate> candidates;
+  std::size_t most = 0;
+  for (int trial = 0; trial < kTrials; ++trial) {
+    const Eigen::Vector3d& a = low[next_random(state) % low.size()];
+    const Eigen::Vector3d& b = low[next_random(state) % low.size()];
+    const Eigen::Vector3d& c = low[next_random(state) % low.size()];
+    Eigen::Vector3d n = (b - a).cross(c - a);
+    if (n.norm() < 1e-6) continue;
+    n.normalize();
+    if (n.z() < 0) n = -n;
+    if (n.z() < min_up) continue;
+    const double d = n.dot(a);
+    std::size_t count = 0;
+    for (const Eigen::Vector3d& p : low) count += std::fabs(n.dot(p) - d) < kInlierDistance;
+    candidates.push_back({n, d, count});
+    most = std::max(most, count);
+  }
+  // The floor is the lowest well-supported horizontal plane: a table top or a bed seen from
+  // close may hold more points, but not less than half as many as the floor when both are seen.
+  // Heights are compared below the points' centroid (the origin may be far away, where a small
+  // tilt moves a plane a lot).
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : low) mean += p;
+  mean /= static_cast<double>(low.size());
+  auto height_at_mean = [&](const Candidate& c) {
+    return (c.d - c.n.x() * mean.x() - c.n.y() * mean.y()) / c.n.z();
+  };
+  std::size_t best = 0;
+  Eigen::Vector3d best_n = Eigen::Vector3d::UnitZ();
+  double best_d = 0.0, best_height = 0.0;
+  for (const Candidate& c : candidates) {
+    if (c.count < most / 2) continue;
+    const double height = height_at_mean(c);
+    if (best == 0 || height < best_height - kInlierDistance ||
+        (std::fabs(height - best_height) <= kInlierDistance && c.count > best)) {
+      best = c.count;
+      best_n = c.n;
+      best_d = c.d;
+      best_height = height;
+    }
+  }
+  if (best < min_inliers) return false;
+  // Least-squares refinement: the plane through the inliers' centroid along their smallest
+  // principal direction.
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  std::vector<const Eigen::Vector3d*> in;
+  for (const Eigen::Vector3d& p : low) {
+    if (std::fabs(best_n.dot(p) - best_d) < kInlierDistance) {
+      in.push_back(&p);
+      centroid += p;
+    }
+  }
+  centroid /= static_cast<double>(in.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d* p : in) cov += (*p - centroid) * (*p - centroid).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  Eigen::Vector3d n = eig.eigenvectors().col(0);
+  if (n.z() < 0) n = -n;
+  *normal = n.normalized();
+  *offset = normal->dot(centroid);
+  *inliers = in.size();
+  return true;
+}
+
 Sequence read_sequence(const std::string& dir, const SequenceReadOptions& options) {
   Sequence seq;
   seq.dir = dir;
@@ -188,6 +347,7 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
 
   const auto lines = read_lines(depth_list);
   double previous = -1e300;
+  std::vector<SequenceFrame> all_frames;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const TextLocation at{depth_list, i + 1};
     const std::string body = strip_comment(lines[i]);
@@ -207,6 +367,7 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
     }
     seq.frames.push_back(std::move(frame));
   }
+  if (seq.gravity_aligned && options.level_floor) level_on_floor(seq);
   return seq;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,9 @@ struct SequenceReadOptions {
   /// With world_z_up 0: rotate the world so that the first camera's "down" (+y of the optical
   /// frame) becomes -z. See Sequence::gravity_aligned.
   bool align_gravity = true;
+  /// After align_gravity: find the floor plane in the first frames' depth and level the world
+  /// on it (floor normal = +z, floor at z = 0). See Sequence::floor_levelled.
+  bool level_floor = true;
 };
 
 /// A read sequence: camera model and the frames that have a pose, in time order.
@@ -71,11 +75,21 @@ struct Sequence {
   std::vector<StampedPose> poses;       ///< groundtruth.txt, sorted, in the output world frame
   std::string pose_file;                ///< the file the poses came from
   /// When camera.txt says world_z_up 0 and align_gravity is on, every pose (translations and
-  /// rotations) was pre-multiplied by this rotation: the smallest rotation taking the first
-  /// pose's camera +y axis (image down) to world -z. It leaves the origin in place. Identity
-  /// otherwise.
+  /// rotations) was moved by x -> world_alignment * x + world_offset: first the smallest
+  /// rotation taking the first pose's camera +y axis (image down) to world -z, then, when the
+  /// floor was found (floor_levelled), the tilt from the floor's normal to +z and the shift that
+  /// puts the floor at z = 0. Identity and zero otherwise.
   Eigen::Quaterniond world_alignment = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d world_offset = Eigen::Vector3d::Zero();
   bool gravity_aligned = false;
+  /// After the gravity alignment, the floor plane found in the first frames' depth was made the
+  /// plane z = 0 with +z its normal: every pose was rotated by the small tilt between the
+  /// camera-down guess and the floor normal and moved so the floor is at z = 0. With
+  /// `floor_levelled`, a world_z_up 0 sequence is in a z-up world with the floor at 0, like
+  /// simulated data, and every tool that reads it with the default options computes the same
+  /// world (their outputs share it). `floor_points` is the plane fit's inlier count.
+  bool floor_levelled = false;
+  std::size_t floor_points = 0;
   std::vector<std::string> warnings;  ///< e.g. unknown camera.txt keys (ignored)
 };
 
@@ -106,6 +120,14 @@ CameraModel bonn_camera();
 /// Reads SEQ/depth.txt, SEQ/groundtruth.txt and SEQ/camera.txt (optional). Throws ToolError
 /// with "file:line: what" for malformed lines and missing files.
 Sequence read_sequence(const std::string& dir, const SequenceReadOptions& options = {});
+
+/// The floor plane in a set of world points (z roughly up): normal (unit, +z side) and offset d
+/// of n.p = d, fitted by a deterministic RANSAC among points below `max_height` whose normal is
+/// within 30 degrees of +z, refined by least squares on its 3 cm inliers. False when fewer
+/// than `min_inliers` points support a plane.
+bool fit_floor_plane(const std::vector<Eigen::Vector3d>& points, double max_height,
+                     std::size_t min_inliers, Eigen::Vector3d* normal, double* offset,
+                     std::size_t* inliers);
 
 /// Loads the depth image of a frame, checking its size against the camera model. Throws
 /// ToolError naming the file.

@@ -148,13 +148,9 @@ std::vector<int> min_cost_assignment(const std::vector<double>& cost, std::size_
 EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
                     const EvalOptions& opt) {
   EvalResult r;
-  SequenceReadOptions ro;
-  ro.align_gravity = false;
-  const Sequence seq = read_sequence(seq_dir, ro);
-  if (seq.camera.world_z_up != 1) {
-    throw ToolError(join_path(seq_dir, "camera.txt") +
-                    ": dynamap-eval needs world_z_up 1 (obstacles are boxes in a z-up world)");
-  }
+  // The default reading: a world_z_up 0 sequence gets the same gravity-aligned, floor-levelled
+  // world as in dynamap-replay and dynamap-label, so tracks and reference boxes share it.
+  const Sequence seq = read_sequence(seq_dir);
   const std::string obstacles_path =
       opt.obstacles_file.empty() ? join_path(seq_dir, "obstacles.txt") : opt.obstacles_file;
   if (!file_exists(obstacles_path)) {
@@ -423,9 +419,7 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
 
 void write_eval_picture(const std::string& png_path, const std::string& seq_dir,
                         const std::string& result_dir, const std::string& obstacles_file) {
-  SequenceReadOptions ro;
-  ro.align_gravity = false;
-  const Sequence seq = read_sequence(seq_dir, ro);
+  const Sequence seq = read_sequence(seq_dir);  // the world of the replay (see evaluate())
   TopViewScene pic;
   pic.title = "dynamap-eval: " + seq_dir;
   pic.subtitle = "tracked dynamic obstacles vs ground truth (boxes at the last frame)";

@@ -379,11 +379,14 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
   Sequence seq = read_sequence(seq_dir);
   sum.listed = seq.images_listed;
   sum.without_pose = seq.images_without_pose;
-  if (seq.camera.world_z_up != 1) {
+  // A world_z_up 0 sequence is read gravity-aligned and levelled on its floor (z = 0); when no
+  // floor was found its heights are only guesses.
+  if (seq.camera.world_z_up != 1 && !seq.floor_levelled) {
     sum.warnings.push_back(join_path(seq_dir, "camera.txt") +
-                           ": no 'world_z_up 1': the floor is assumed at z = " +
+                           ": no 'world_z_up 1' and no floor found: the floor is assumed at z = " +
                            std::to_string(opt.floor_z) + " of the gravity-aligned world");
   }
+  for (const std::string& w : seq.warnings) sum.warnings.push_back(w);
   const auto first =
       std::min(seq.frames.size(), static_cast<std::size_t>(std::max(0, opt.first_frame)));
   seq.frames.erase(seq.frames.begin(), seq.frames.begin() + static_cast<std::ptrdiff_t>(first));
