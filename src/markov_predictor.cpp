@@ -53,16 +53,11 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
     return Status::kInvalidArgument;
   }
   if (!std::isfinite(c.beta) || c.beta < 0.0f) return Status::kInvalidArgument;
-  if (!std::isfinite(c.straight_return) || c.straight_return < 0.0f || c.straight_return >= 1.0f) {
-    return Status::kInvalidArgument;
-  }
   if (!std::isfinite(c.unknown_weight) || c.unknown_weight < 0.0f || c.unknown_weight > 1.0f) {
     return Status::kInvalidArgument;
   }
   if (!ok(validate(c.depth_check))) return Status::kInvalidArgument;
-  if (c.belief_update != BeliefUpdate::kCompound && c.belief_update != BeliefUpdate::kChoiceOnly &&
-      c.belief_update != BeliefUpdate::kLastChoice &&
-      c.belief_update != BeliefUpdate::kShiftedChoice) {
+  if (c.belief_update != BeliefUpdate::kCompound && c.belief_update != BeliefUpdate::kChoiceOnly) {
     return Status::kInvalidArgument;
   }
 
@@ -75,8 +70,6 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
   for (std::size_t i = 0; i < kMaxPaths; ++i) {
     if (i < l) {
       discrete_gaussian(l, static_cast<double>(i), s_trans, &trans_[i]);
-      const double a = static_cast<double>(c.straight_return);
-      for (std::size_t j = 0; j < l; ++j) trans_[i][j] = (1.0 - a) * trans_[i][j] + a * initial_[j];
     } else {
       trans_[i].fill(0.0);
     }
@@ -98,9 +91,9 @@ double MarkovPredictor::sigma_in_indices(float sigma_rad) const noexcept {
 }
 
 bool MarkovPredictor::belief(std::uint32_t track_id, Belief* out) const noexcept {
-  const TrackBelief* b = beliefs_.find(track_id);
+  const Belief* b = beliefs_.find(track_id);
   if (b == nullptr) return false;
-  *out = b->p;
+  *out = *b;
   return true;
 }
 
@@ -119,7 +112,7 @@ Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t coun
 
   // Forget tracks that are not in this frame first, so the table never holds more than count.
   FixedVector<std::uint32_t, kPredictorTrackSlots> stale;
-  beliefs_.for_each([&](std::uint32_t id, const TrackBelief&) {
+  beliefs_.for_each([&](std::uint32_t id, const Belief&) {
     for (std::size_t k = 0; k < count; ++k) {
       if (obstacles[k].track_id == id) return;
     }
@@ -178,39 +171,18 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
 
   // Belief update. prior = P(t) * P_trans, or P_init for a new track; post = prior (.) P_env,
   // normalised, is what the choice is made on. kCompound keeps post for the next frame,
-  // kChoiceOnly keeps prior, kLastChoice keeps the choice (below).
+  // kChoiceOnly keeps prior.
   const BeliefUpdate mode = config_.belief_update;
-  const float heading = std::atan2(obstacle.velocity.y(), obstacle.velocity.x());
   bool inserted = false;
-  TrackBelief* state = beliefs_.find_or_insert(obstacle.track_id, inserted);
+  Belief* state = beliefs_.find_or_insert(obstacle.track_id, inserted);
   const bool fresh = inserted || state == nullptr;
   Belief prior{};
   if (fresh) {
     prior = initial_;
-  } else if (mode == BeliefUpdate::kShiftedChoice) {
-    // The kept belief is 1 on the last choice c. Path i turns by max_heading_change - i *
-    // spacing, so after a turn of dtheta (left positive) what is left of c is path c + dtheta /
-    // spacing.
-    std::size_t c = 0;
-    for (std::size_t i = 1; i < l; ++i) {
-      if (state->p[i] > state->p[c]) c = i;
-    }
-    const double spacing = l > 1 ? 2.0 * static_cast<double>(library_.config().max_heading_change) /
-                                       static_cast<double>(l - 1)
-                                 : 0.0;
-    const double dtheta =
-        std::remainder(static_cast<double>(heading) - static_cast<double>(state->heading),
-                       2.0 * 3.14159265358979323846);
-    double pos = static_cast<double>(c) + (spacing > 0.0 ? dtheta / spacing : 0.0);
-    pos = std::fmin(std::fmax(pos, 0.0), static_cast<double>(l - 1));
-    const std::size_t i0 = static_cast<std::size_t>(std::floor(pos));
-    const std::size_t i1 = i0 + 1 < l ? i0 + 1 : i0;
-    const double f = pos - static_cast<double>(i0);
-    for (std::size_t j = 0; j < l; ++j) prior[j] = (1.0 - f) * trans_[i0][j] + f * trans_[i1][j];
   } else {
     for (std::size_t j = 0; j < l; ++j) {
       double pred = 0.0;
-      for (std::size_t i = 0; i < l; ++i) pred += state->p[i] * trans_[i][j];
+      for (std::size_t i = 0; i < l; ++i) pred += (*state)[i] * trans_[i][j];
       prior[j] = pred;
     }
   }
@@ -247,15 +219,7 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
   }
   if (best == l) best = 0;  // l >= 1, so only reached if no path was considered (cannot happen)
   if (state != nullptr) {   // nullptr only if the table were full (it cannot be)
-    state->heading = heading;
-    if (mode == BeliefUpdate::kCompound) {
-      state->p = post;
-    } else if (mode == BeliefUpdate::kChoiceOnly) {
-      state->p = prior;
-    } else {
-      state->p.fill(0.0);
-      state->p[best] = 1.0;
-    }
+    *state = mode == BeliefUpdate::kCompound ? post : prior;
   }
   for (std::size_t i = 0; i < kMaxPaths; ++i) {
     out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;

@@ -103,11 +103,8 @@ ConfigError validate(const PipelineConfig& c) noexcept {
                 c.predictor.unknown_weight <= 1.f,
             "predictor.unknown_weight", "must be in [0, 1]");
   k.require(c.predictor.belief_update == BeliefUpdate::kCompound ||
-                c.predictor.belief_update == BeliefUpdate::kChoiceOnly ||
-                c.predictor.belief_update == BeliefUpdate::kLastChoice ||
-                c.predictor.belief_update == BeliefUpdate::kShiftedChoice,
-            "predictor.belief_update",
-            "must be compound, choice_only, last_choice or shifted_choice");
+                c.predictor.belief_update == BeliefUpdate::kChoiceOnly,
+            "predictor.belief_update", "must be compound or choice_only");
   {
     const DepthCheckConfig& d = c.predictor.depth_check;
     k.require(std::isfinite(d.noise_margin) && d.noise_margin >= 0.f,

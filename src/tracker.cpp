@@ -41,7 +41,6 @@ Status TrackerConfig::validate() const noexcept {
       size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
       noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
       std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
-      occluder_adjacency_px >= 0 &&
 
       history_length + 1 <= kMaxTrackHistory &&
       continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
@@ -89,8 +88,7 @@ bool Tracker::moves_rigidly(const Track& t) const noexcept {
 }
 
 Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3f& camera,
-                                      const Eigen::Vector3f* fixed_size,
-                                      const EdgeCut* cut) const noexcept {
+                                      const Eigen::Vector3f* fixed_size) const noexcept {
   Measurement m;
   const Box3& box = config_.measure_raw_box ? det.raw_box : det.box;
   m.center = box.center();
@@ -102,10 +100,6 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
   m.own_size = m.raw_size;
   const bool round = config_.max_round_footprint <= 0.f ||
                      std::max(m.raw_size.x(), m.raw_size.y()) <= config_.max_round_footprint;
-  // One lateral edge cut (image border or a nearer detection) and a width known: the visible
-  // edge is the object's, the other is the cut's.
-  const bool one_cut = cut != nullptr && cut->width > 0.f && round &&
-                       (cut->sides == kCutLeft || cut->sides == kCutRight);
   if (config_.correct_near_surface_bias && round) {
     const float footprint = std::max(m.raw_size.x(), m.raw_size.y());
     m.own_size.x() = footprint;
@@ -115,10 +109,8 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
   if (config_.correct_near_surface_bias && round) {
     if (fixed_size == nullptr) {
       // Depth sees only the near surface, so the extent along the ray is too small. Assume a
-      // round / square footprint: the full horizontal size is the larger horizontal extent (or
-      // the track's width when this detection is cut).
-      float footprint = std::max(m.raw_size.x(), m.raw_size.y());
-      if (one_cut) footprint = std::max(footprint, cut->width);
+      // round / square footprint: the full horizontal size is the larger horizontal extent.
+      const float footprint = std::max(m.raw_size.x(), m.raw_size.y());
       m.size.x() = footprint;
       m.size.y() = footprint;
     }
@@ -134,51 +126,10 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
       }
     }
   }
-  if (one_cut) {
-    // Lateral (image-right) coordinates of the box's top-view corners: the visible extent.
-    const Eigen::Vector2f& r = cut->right;
-    float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector2f corner((k & 1) ? box.max.x() : box.min.x(),
-                                   (k & 2) ? box.max.y() : box.min.y());
-      const float l = corner.dot(r);
-      lo = std::min(lo, l);
-      hi = std::max(hi, l);
-    }
-    if (hi - lo < cut->width) {
-      const float target = cut->sides == kCutLeft ? hi - 0.5f * cut->width : lo + 0.5f * cut->width;
-      m.center.head<2>() += (target - m.center.head<2>().dot(r)) * r;
-    }
-  }
   return m;
 }
 
-std::uint8_t Tracker::cut_sides(const Detection* dets, std::size_t count,
-                                std::size_t i) const noexcept {
-  const ImageBox& a = dets[i].image_box;
-  if (a.u1 < a.u0 || a.v1 < a.v0) return 0;
-  std::uint8_t sides = 0;
-  if (a.u0 <= config_.image_margin) sides |= kCutLeft;
-  if (a.u1 >= config_.image_width - 1 - config_.image_margin) sides |= kCutRight;
-  const int px = config_.occluder_adjacency_px;
-  for (std::size_t j = 0; j < count; ++j) {
-    const ImageBox& b = dets[j].image_box;
-    if (j == i || b.u1 < b.u0 || b.v1 < b.v0) continue;
-    if (!(dets[j].near_depth < dets[i].near_depth) || b.v0 > a.v1 || b.v1 < a.v0) continue;
-    // A nearer box reaching over our edge from outside hides what lies beyond that edge.
-    if (b.u0 < a.u0 && b.u1 >= a.u0 - px) sides |= kCutLeft;
-    if (b.u1 > a.u1 && b.u0 <= a.u1 + px) sides |= kCutRight;
-  }
-  return sides;
-}
-
-float Tracker::width_estimate(const Track& t) const noexcept {
-  float w = t.width_frames > 0 ? t.width_sum / static_cast<float>(t.width_frames) : 0.f;
-  if (t.out.size_fixed) w = std::max(w, std::max(t.size.x(), t.size.y()));
-  return w;
-}
-
-void Tracker::start_track(Track& t, const Measurement& m, bool uncut, Stamp stamp) noexcept {
+void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept {
   t.active = true;
   t.out = TrackedObstacle{};
   t.out.id = next_id_++;
@@ -202,11 +153,6 @@ void Tracker::start_track(Track& t, const Measurement& m, bool uncut, Stamp stam
   t.z_center = m.center.z();
   t.size = m.size;
   t.corrected_with = m.size;
-  t.last_cut_sides = 0;  // measured without the cut-edge model
-  t.last_cut_width = 0.f;
-  const bool width_counts = uncut && m.in_view && m.near_enough;
-  t.width_sum = width_counts ? std::max(m.own_size.x(), m.own_size.y()) : 0.f;
-  t.width_frames = width_counts ? 1 : 0;
   const bool counts = m.in_view && m.near_enough;
   t.in_view_frames = counts ? 1 : 0;
   t.size_sum = counts ? m.size : Eigen::Vector3f::Zero();
@@ -218,32 +164,21 @@ void Tracker::start_track(Track& t, const Measurement& m, bool uncut, Stamp stam
 }
 
 void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
-                            EdgeCut cut, Stamp stamp) noexcept {
-  const bool uncut = cut.sides == 0;
-  cut.width = config_.measure_cut_from_visible_edge ? width_estimate(t) : 0.f;
-  const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr, &cut);
+                            Stamp stamp) noexcept {
+  const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr);
   const Eigen::Vector2f xy = m.center.head<2>();
-  // A change of how the detection is turned into a centre is no motion: the frozen size was just
-  // set or raised (compensate_size_steps), or the cut-edge measurement starts, stops or changes
-  // its width. Measure the same detection the way the last frame was measured and move the
-  // track's reference (filter position, position history, last measurement) by the difference.
+  // A step of the frozen size (just set or raised) changes how the detection is turned into a
+  // centre, which is no motion (compensate_size_steps): measure the same detection with the
+  // size the last frame used and move the track's reference (filter position, position
+  // history, last measurement) by the difference.
   const bool size_step =
       config_.compensate_size_steps && t.out.size_fixed && m.size != t.corrected_with;
-  const bool cut_step = config_.measure_cut_from_visible_edge &&
-                        (cut.sides != t.last_cut_sides || cut.width != t.last_cut_width);
-  if (size_step || cut_step) {
-    EdgeCut before = cut;
-    before.sides = t.last_cut_sides;
-    before.width = t.last_cut_width;
-    const Eigen::Vector3f* size_before =
-        t.out.size_fixed ? (size_step ? &t.corrected_with : &t.size) : nullptr;
-    const Eigen::Vector2f step = xy - measure(det, camera, size_before, &before).center.head<2>();
+  if (size_step) {
+    const Eigen::Vector2f step = xy - measure(det, camera, &t.corrected_with).center.head<2>();
     t.kf.shift_position(step);
     t.positions.add_to_all(step);
     t.last_measured += step;
   }
-  t.last_cut_sides = cut.sides;
-  t.last_cut_width = cut.width;
   t.corrected_with = m.size;
   const float dt = seconds_between(t.last_measured_stamp, stamp);
   const Eigen::Vector2f v_meas = (xy - t.last_measured) / dt;
@@ -260,10 +195,6 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   t.positions.push(xy, config_.history_length + 1);
   t.edges.push(m.edges, config_.history_length + 1);
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
-  if (uncut && m.in_view && m.near_enough) {
-    t.width_sum += std::max(m.own_size.x(), m.own_size.y());
-    ++t.width_frames;
-  }
 
   if (!t.out.size_fixed) {
     t.size = m.size;
@@ -340,15 +271,6 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
   }
 
   const Eigen::Vector3f camera = T_map_camera.translation;
-  // The image's right (camera x) in the top view, for detections cut on one side.
-  Eigen::Vector2f image_right = (T_map_camera.rotation * Eigen::Vector3f::UnitX()).head<2>();
-  const float right_norm = image_right.norm();
-  image_right =
-      right_norm > 1e-3f ? Eigen::Vector2f(image_right / right_norm) : Eigen::Vector2f::Zero();
-  std::array<std::uint8_t, kMaxDetections> cut{};
-  if (config_.measure_cut_from_visible_edge && right_norm > 1e-3f) {
-    for (std::size_t i = 0; i < count; ++i) cut[i] = cut_sides(dets, count, i);
-  }
   const float dt = has_stamp_ ? seconds_between(last_stamp_, stamp) : 0.f;
 
   // --- predict every live track to this frame ---
@@ -399,8 +321,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     if (det_used[pr.det] || track_used[pr.slot]) continue;
     det_used[pr.det] = true;
     track_used[pr.slot] = true;
-    correct_track(tracks_[pr.slot], dets[pr.det], camera, EdgeCut{cut[pr.det], image_right, 0.f},
-                  stamp);
+    correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
     tracks_[pr.slot].out.detection = pr.det;
   }
 
@@ -431,7 +352,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
       ++refused_tracks_;
       continue;
     }
-    start_track(tracks_[free_slot], meas[i], cut[i] == 0, stamp);
+    start_track(tracks_[free_slot], meas[i], stamp);
     tracks_[free_slot].out.detection = static_cast<std::int32_t>(i);
     ++free_slot;
   }

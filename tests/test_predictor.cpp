@@ -698,81 +698,10 @@ TEST(MarkovPredictor, FootprintClearanceCountsNearMisses) {
 // Causes of prediction failures on the simulated scenes
 // (docs/notes/predictor-failures-1-own-body.md).
 
-TEST(MarkovPredictor, TransitionMixesInTheInitialDistribution) {
-  MarkovPredictorConfig c = markov_config(5);
-  c.straight_return = 0.0f;
-  MarkovPredictor plain;
-  ASSERT_EQ(plain.init(c), Status::kOk);
-  c.straight_return = 0.3f;
-  MarkovPredictor mixed;
-  ASSERT_EQ(mixed.init(c), Status::kOk);
-  const double a = static_cast<double>(0.3f);
-  for (std::size_t i = 0; i < 5; ++i) {
-    double row = 0.0;
-    for (std::size_t j = 0; j < 5; ++j) {
-      EXPECT_NEAR(mixed.transition(i, j), (1.0 - a) * plain.transition(i, j) + a * plain.initial(j),
-                  1e-12);
-      EXPECT_LE(mixed.transition(i, j), mixed.transition(i, i));
-      row += mixed.transition(i, j);
-    }
-    EXPECT_NEAR(row, 1.0, 1e-12);
-  }
-  for (float bad : {-0.1f, 1.0f, std::nanf("")}) {
-    c.straight_return = bad;
-    EXPECT_EQ(mixed.init(c), Status::kInvalidArgument);
-  }
-  EXPECT_NEAR(mixed.transition(0, 2), (1.0 - a) * plain.transition(0, 2) + a * plain.initial(2),
-              1e-12);  // a rejected config changed nothing
-}
-
-// Frames 0-9 of a walker heading +x at (3, -0.6) towards walls ahead and right with an opening
-// on its left: `mp` is initialised with `c` and its belief is moved onto the left turns.
-void approach_wall_with_left_opening(const MarkovPredictorConfig& c, MarkovPredictor& mp,
-                                     PathPrediction& out) {
-  BoxWorld w;
-  build_wall_with_left_opening(w);
-  ASSERT_EQ(mp.init(c), Status::kOk);
-  for (int f = 0; f < 10; ++f) {
-    const ObstacleState o = walker(3, -0.6f, 0.0f, 1.0f, 0.0f);
-    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
-  }
-}
-
-TEST(MarkovPredictor, BeliefReturnsToStraightOnceTheMapNoLongerChooses) {
-  // Frames 0-9: only left turns are free (walls ahead and right, opening on the left), so the
-  // belief moves onto a left path. Then the walker is in open space, every path free: the plain
-  // Gaussian chain only diffuses back to straight slowly (the walker has turned and walks
-  // straight on in its own velocity frame); with straight_return the belief returns at once.
-  std::array<int, 2> frames_to_straight{};
-  const std::array<float, 2> returns = {0.0f, 0.2f};
-  for (std::size_t r = 0; r < 2; ++r) {
-    MarkovPredictorConfig c = markov_config(5);
-    c.straight_return = returns[r];
-    MarkovPredictor mp;
-    PathPrediction out;
-    ASSERT_NO_FATAL_FAILURE(approach_wall_with_left_opening(c, mp, out));
-    EXPECT_LT(out.chosen, 2u);  // a left turn
-    BoxWorld open;
-    frames_to_straight[r] = 100;
-    for (int f = 0; f < 100; ++f) {
-      const ObstacleState o = walker(3, 0.0f, 10.0f, 0.0f, 1.0f);
-      ASSERT_EQ(mp.predict(&o, 1, open.query(), &out), Status::kOk);
-      EXPECT_EQ(out.free_mask, 0x1Fu);
-      if (out.chosen == 2u) {
-        frames_to_straight[r] = f + 1;
-        break;
-      }
-    }
-  }
-  EXPECT_LE(frames_to_straight[1], 3);  // 0.1 s at 30 Hz
-  EXPECT_GT(frames_to_straight[0], 2 * frames_to_straight[1]);
-}
-
 // A walker walks straight along +x, 0.8 m left of a long wall on its right (y = -0.8): the
 // straight path and both left turns are free for the whole horizon, the two right turns meet
 // the wall. Returns the path chosen in each of `frames` frames.
-std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames,
-                                               MarkovPredictor::Belief* last_belief = nullptr) {
+std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames) {
   BoxWorld w;
   w.add_box(wall(-5.0f, -0.9f, 60.0f, -0.8f));
   MarkovPredictorConfig c = markov_config(5);
@@ -788,9 +717,6 @@ std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames,
     expect_valid_distribution(out);
     chosen.push_back(out.chosen);
   }
-  if (last_belief != nullptr) {
-    EXPECT_TRUE(mp.belief(4, last_belief));
-  }
   return chosen;
 }
 
@@ -805,41 +731,8 @@ TEST(MarkovPredictor, CompoundingBeliefDriftsOffTheStraightPathAlongAWall) {
 }
 
 TEST(MarkovPredictor, NonCompoundingBeliefKeepsTheStraightPathAlongAWall) {
-  for (const BeliefUpdate mode :
-       {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
-    MarkovPredictor::Belief b{};
-    const std::vector<std::size_t> chosen = walk_along_right_wall(mode, 60, &b);
-    for (std::size_t f = 0; f < chosen.size(); ++f) {
-      EXPECT_EQ(chosen[f], 2u) << "mode " << static_cast<int>(mode) << ", frame " << f;
-    }
-    if (mode != BeliefUpdate::kChoiceOnly) {
-      for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(b[i], i == 2 ? 1.0 : 0.0);
-    }
-  }
-}
-
-TEST(MarkovPredictor, ShiftedChoiceReturnsToStraightOnceTheTurnIsDone) {
-  // Frames 0-9: walls ahead and right, an opening on the left, so a left turn is chosen. Then
-  // the walker is in open space and has turned by exactly that path's heading change: with
-  // kShiftedChoice nothing of the turn is left and the straight path is chosen at once; with
-  // kLastChoice the choice stays on the turn (in the new velocity frame, a second turn).
-  for (const BeliefUpdate mode : {BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
-    MarkovPredictorConfig c = markov_config(5);
-    c.belief_update = mode;
-    MarkovPredictor mp;
-    PathPrediction out;
-    ASSERT_NO_FATAL_FAILURE(approach_wall_with_left_opening(c, mp, out));
-    const std::size_t turn = out.chosen;
-    ASSERT_LT(turn, 2u);  // a left turn
-    // Path i of l = 5 turns by max_heading_change * (1 - i / 2).
-    const float dtheta =
-        mp.library().config().max_heading_change * (1.0f - 0.5f * static_cast<float>(turn));
-    BoxWorld open;
-    const ObstacleState o = walker(3, 0.0f, 10.0f, std::cos(dtheta), std::sin(dtheta));
-    ASSERT_EQ(mp.predict(&o, 1, open.query(), &out), Status::kOk);
-    EXPECT_EQ(out.free_mask, 0x1Fu);
-    EXPECT_EQ(out.chosen, mode == BeliefUpdate::kShiftedChoice ? 2u : turn);
-  }
+  const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kChoiceOnly, 60);
+  for (std::size_t f = 0; f < chosen.size(); ++f) EXPECT_EQ(chosen[f], 2u) << "frame " << f;
 }
 
 TEST(MarkovPredictor, ChoiceOnlyBeliefIsTheChainAloneAndTheOutputItsProductWithTheMap) {
@@ -892,8 +785,7 @@ TEST(MarkovPredictor, BeliefUpdateIsValidatedAndAllocationFree) {
   EXPECT_EQ(mp.config().belief_update, BeliefUpdate::kCompound);  // nothing changed
   BoxWorld w;
   build_wall_with_left_opening(w);
-  for (const BeliefUpdate mode :
-       {BeliefUpdate::kChoiceOnly, BeliefUpdate::kLastChoice, BeliefUpdate::kShiftedChoice}) {
+  for (const BeliefUpdate mode : {BeliefUpdate::kCompound, BeliefUpdate::kChoiceOnly}) {
     c.belief_update = mode;
     ASSERT_EQ(mp.init(c), Status::kOk);
     std::array<ObstacleState, 3> in{};

@@ -495,60 +495,6 @@ TEST(TrackerSize, SizeStepIsNotReadAsMotion) {
   EXPECT_NEAR(x_without, 4.f, 0.02f);
 }
 
-// A walker (0.5 m cylinder, near face x in [3.75, 3.95]) walks at 0.6 m/s along -y, which is
-// image-right for a camera at the origin looking along +x. After 30 frames in full view its
-// right edge is cut, for 20 frames, at y = -0.05 (by the image border, or by a nearer crate whose
-// image box reaches over that edge), so the visible part's centre moves at half the speed. Returns
-// the mean velocity error over the last 15 cut frames.
-float velocity_error_while_cut(bool measure_cut, bool by_occluder) {
-  TrackerConfig config;
-  config.measure_cut_from_visible_edge = measure_cut;
-  auto tracker = make_tracker(config);
-  Pose camera;  // optical frame: x right = map -y, y down = map -z, z forward = map +x
-  Eigen::Matrix3f r;
-  r << 0.f, 0.f, 1.f, -1.f, 0.f, 0.f, 0.f, -1.f, 0.f;
-  camera.rotation = Eigen::Quaternionf(r).normalized();
-  constexpr float kSpeed = 0.6f, kDt = 1.f / 30.f, kCutY = -0.05f;
-  Stamp stamp = 0;
-  float error_sum = 0.f;
-  int counted = 0;
-  for (int f = 0; f < 50; ++f) {
-    const float y = 0.8f - kSpeed * kDt * static_cast<float>(f);
-    const bool cut = f >= 30;
-    const float y_min = cut ? std::max(y - 0.25f, kCutY) : y - 0.25f;
-    Box3 seen;
-    seen.min = Eigen::Vector3f(3.75f, y_min, 0.f);
-    seen.max = Eigen::Vector3f(3.95f, y + 0.25f, 1.7f);
-    std::array<Detection, 2> d;
-    d[0] = detection(
-        seen.center(), seen.size(),
-        cut && !by_occluder ? ImageBox{520, 100, 639, 400} : ImageBox{300, 100, 420, 400});
-    d[0].near_depth = 3.75f;
-    // The crate at 2 m: its image box starts just inside the walker's right edge once it cuts it.
-    d[1] = detection({2.f, -0.6f, 0.4f}, Eigen::Vector3f(0.4f, 0.4f, 0.8f),
-                     cut ? ImageBox{418, 250, 500, 479} : ImageBox{480, 250, 560, 479});
-    d[1].near_depth = 1.8f;
-    const std::size_t count = by_occluder ? 2 : 1;
-    EXPECT_EQ(tracker->update(d.data(), count, camera, stamp += kFrame), Status::kOk);
-    const TrackedObstacle* walker = find_id(*tracker, 1);
-    EXPECT_NE(walker, nullptr);
-    if (walker != nullptr && f >= 35) {
-      error_sum += (walker->velocity.head<2>() - Eigen::Vector2f(0.f, -kSpeed)).norm();
-      ++counted;
-    }
-  }
-  return counted > 0 ? error_sum / static_cast<float>(counted) : 1e9f;
-}
-
-TEST(TrackerMeasurement, CutDetectionIsMeasuredFromItsVisibleEdge) {
-  for (const bool by_occluder : {false, true}) {
-    const float with = velocity_error_while_cut(true, by_occluder);
-    const float without = velocity_error_while_cut(false, by_occluder);
-    EXPECT_LT(with, 0.01f) << "occluder " << by_occluder;
-    EXPECT_GT(without, 0.2f) << "occluder " << by_occluder;  // the visible centre's half speed
-  }
-}
-
 // An elongated box (a 2 m wall piece seen face on) is not round: its missing depth is unknown, so
 // the tracker keeps the visible face's centre instead of pushing it 1 m behind the wall.
 TEST(TrackerBias, ElongatedBoxKeepsItsCentre) {
@@ -740,9 +686,6 @@ TEST(TrackerRobustness, BadConfigIsRefused) {
   c = TrackerConfig{};
   c.max_round_footprint = -1.f;
   EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
-  c = TrackerConfig{};
-  c.occluder_adjacency_px = -1;
-  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
   EXPECT_EQ(tracker.init(TrackerConfig{}), Status::kOk);
 }
 
@@ -816,10 +759,8 @@ TEST(TrackerMeasurement, BadRawBoxIsRefusedAndChangesNothing) {
 }
 
 TEST(TrackerRobustness, NoHeapAllocationPerFrame) {
-  for (const bool cut_edges : {false, true}) {  // the optional cut-edge measurement too
-    TrackerConfig config;
-    config.measure_cut_from_visible_edge = cut_edges;
-    auto tracker = make_tracker(config);
+  {
+    auto tracker = make_tracker();
     std::vector<Detection> dets;
     for (std::size_t i = 0; i < kMaxDetections; ++i) {
       // Image boxes side by side; the nearest column is cut by the right border now and then.

@@ -1,7 +1,7 @@
 // MarkovPredictor: environment-aware trajectory prediction (docs/design.md §4.6). Per track, a
 // belief P over the l library paths evolves as P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)),
 // where P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map (or,
-// with BeliefUpdate::kChoiceOnly and the others, P_env only chooses and is not carried on). All
+// with BeliefUpdate::kChoiceOnly, P_env only chooses and is not carried on). All
 // state is inline (fixed capacity); predict() never allocates and does bounded work.
 #pragma once
 
@@ -27,14 +27,6 @@ enum class BeliefUpdate : std::uint8_t {
   /// P(t+1) = P(t) * P_trans (a new track starts from P_init): the belief is the chain's prior
   /// alone and P_env is applied only to choose this frame's path, never carried to the next.
   kChoiceOnly,
-  /// P(t+1) = e_c(t) * P_trans, the P_trans row of the path chosen at t (a new track starts
-  /// from P_init): the chain remembers the last choice, not the evidence behind it.
-  kLastChoice,
-  /// As kLastChoice, but the chosen path is first moved by the heading change the track made
-  /// since the last frame: a walker on a 90 degree left turn who has turned 30 degrees has 60 to
-  /// go, so the P_trans row is taken at the path turning theta_c - dtheta (split linearly between
-  /// the two nearest paths, clamped to the library). A completed turn returns to straight.
-  kShiftedChoice,
 };
 
 /// Path family, footprint check and the Markov chain's parameters.
@@ -47,14 +39,6 @@ struct MarkovPredictorConfig {
   float sigma_init = 0.7853982f;   ///< of P_init around the straight path
   float sigma_trans = 0.7853982f;  ///< of each P_trans row around its diagonal
   float beta = 2.0f;  ///< 1/m: P_env = softmax(beta * free distance); 0 ignores the map
-  /// Share of each P_trans row drawn from P_init instead of the Gaussian around the current path:
-  /// P_trans = (1 - straight_return) * Gaussian rows + straight_return * 1 P_init^T (still row
-  /// stochastic). The paths live in the obstacle's velocity frame, so a walker who has taken a
-  /// turn walks straight on in that frame; without this term nothing but P_env ever pulls the
-  /// belief back to straight, and where the map does not tell the paths apart (all free, or all
-  /// ending in unknown space) it stays on a turn forever. [0, 1); 0 (default) is the plain
-  /// Gaussian chain; measured, the term helps corridors and hurts rooms (docs/predictor.md).
-  float straight_return = 0.0f;
   /// Weight, in [0, 1], of the stretch of a path that runs through space the map has never
   /// observed (unknown voxels) in the free distance of P_env: Dist_i = observed_i +
   /// unknown_weight * (free_i - observed_i), where observed_i is the arc length before the
@@ -128,11 +112,10 @@ class MarkovPredictor {
   /// Number of tracks with a belief.
   std::size_t tracked() const noexcept { return beliefs_.size(); }
   /// Copies the belief of `track_id` as kept for the next frame (kCompound: the posterior;
-  /// kChoiceOnly: P(t) * P_trans without P_env; kLastChoice, kShiftedChoice: 1 on the chosen path,
-  /// 0 elsewhere); false when the track is unknown.
+  /// kChoiceOnly: P(t) * P_trans without P_env); false when the track is unknown.
   bool belief(std::uint32_t track_id, Belief* out) const noexcept;
   /// Frames in which (P * P_trans) (.) P_env underflowed and the belief was restarted.
-  /// (kChoiceOnly / kLastChoice / kShiftedChoice: the belief is then P_init again.)
+  /// (kChoiceOnly: the belief is then P_init again.)
   std::uint64_t underflow_restarts() const noexcept { return underflow_restarts_; }
 
  private:
@@ -144,11 +127,7 @@ class MarkovPredictor {
   bool initialised_ = false;
   Belief initial_{};
   std::array<Belief, kMaxPaths> trans_{};
-  struct TrackBelief {
-    Belief p{};
-    float heading = 0.0f;  // velocity direction (rad) at the last frame, for kShiftedChoice
-  };
-  FixedHashMap<std::uint32_t, TrackBelief, kPredictorTrackSlots> beliefs_{};
+  FixedHashMap<std::uint32_t, Belief, kPredictorTrackSlots> beliefs_{};
   std::array<PathSamples, kMaxPaths> paths_{};  // scratch: one obstacle's sampled paths
   std::uint64_t underflow_restarts_ = 0;
 };

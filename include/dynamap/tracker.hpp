@@ -121,22 +121,6 @@ struct TrackerConfig {
   /// (docs/tracker.md, "Measurement"). The per-frame footprint of a track whose size is not frozen
   /// yet is left alone: it is detection noise, not a re-estimate. No value to validate.
   bool compensate_size_steps = true;
-  /// Measure a detection whose image box is cut on one side (by the left or right image border,
-  /// within `image_margin`, or by a nearer detection whose image box reaches over that edge
-  /// from outside, within `occluder_adjacency_px`) from its other, visible lateral edge: the
-  /// centre across the viewing ray is put half the track's width estimate inside that edge, and
-  /// the width replaces the cut footprint in the bias correction while the size is not frozen.
-  /// The visible part of a walker stepping out of the image or from behind a crate slides with
-  /// the cut, and its centre with it. The width estimate is the
-  /// mean footprint of the track's uncut, in-view frames within `size_fix_max_depth` (or the
-  /// frozen size, if larger); without one, and for boxes longer than `max_round_footprint`,
-  /// the detection is measured as before. A change of this model (a cut starts or ends, the
-  /// width changes) shifts the track's reference like a size step. Off by default: measured, it
-  /// did not improve every scene (docs/notes/tracker-accuracy-3-velocity.md).
-  bool measure_cut_from_visible_edge = false;
-  /// Image columns between a detection's edge and a nearer detection's box for the nearer one to
-  /// count as cutting that edge (`measure_cut_from_visible_edge`). At least 0.
-  int occluder_adjacency_px = 3;
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -205,10 +189,6 @@ class Tracker {
     float z_center = 0.f;
     Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
     Eigen::Vector3f corrected_with = Eigen::Vector3f::Zero();  // size behind the last correction
-    float width_sum = 0.f;  // footprints of uncut, in-view, near-enough frames
-    std::uint32_t width_frames = 0;
-    std::uint8_t last_cut_sides = 0;  // the cut-edge model of the last measurement
-    float last_cut_width = 0.f;
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
     std::size_t in_view_frames = 0;
     std::size_t dynamic_streak = 0;  // consecutive dynamic votes on consecutive frames
@@ -226,24 +206,12 @@ class Tracker {
     bool in_view;
     bool near_enough;  // near enough for size fixing
   };
-  /// Which lateral image edges of a detection are cut (bits kCutLeft, kCutRight), with the
-  /// camera's image-right direction in the top view and the track's width estimate (0: none).
-  struct EdgeCut {
-    std::uint8_t sides = 0;
-    Eigen::Vector2f right = Eigen::Vector2f::Zero();
-    float width = 0.f;
-  };
-  static constexpr std::uint8_t kCutLeft = 1, kCutRight = 2;
-
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
-                      const Eigen::Vector3f* fixed_size,
-                      const EdgeCut* cut = nullptr) const noexcept;
-  std::uint8_t cut_sides(const Detection* dets, std::size_t count, std::size_t i) const noexcept;
-  float width_estimate(const Track& t) const noexcept;
+                      const Eigen::Vector3f* fixed_size) const noexcept;
   bool fully_in_view(const ImageBox& b) const noexcept;
   bool moves_rigidly(const Track& t) const noexcept;
-  void start_track(Track& t, const Measurement& m, bool uncut, Stamp stamp) noexcept;
-  void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera, EdgeCut cut,
+  void start_track(Track& t, const Measurement& m, Stamp stamp) noexcept;
+  void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
                      Stamp stamp) noexcept;
   void publish() noexcept;
 
