@@ -52,9 +52,11 @@ struct PipelineConfig {
   DynamicRegionCleanerConfig cleaner{};
   MarkovPredictorConfig predictor{};
   Stamp clean_history_max_age_ns =
-      3'000'000'000ULL;             ///< cleaned voxels count as occupied this long
-  bool run_linear_baseline = true;  ///< also run the constant-velocity predictor (evaluation)
-  float ground_height = 0.0f;       ///< map-frame z of the floor (m)
+      3'000'000'000ULL;  ///< cleaned voxels count as occupied this long
+  /// Also run the constant-velocity predictor (FrameOutput::linear_predictions): the yardstick
+  /// of the evaluation's failure ratio, no use in flight, so off; the replay tools turn it on.
+  bool run_linear_baseline = false;
+  float ground_height = 0.0f;  ///< map-frame z of the floor (m)
   BudgetConfig budgets{};
 };
 

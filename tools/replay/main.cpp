@@ -105,7 +105,7 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
       exit_code = 0;
       return false;
     } else if (a == "--help-params") {
-      for (const std::string& line : describe_params(PipelineConfig{})) std::cout << line << "\n";
+      for (const std::string& line : describe_params(replay_defaults())) std::cout << line << "\n";
       exit_code = 0;
       return false;
     } else if (a == "--out") {

@@ -28,6 +28,10 @@ Pose to_pose(const PoseD& pose);
 
 /// Default configuration with the sequence's camera, then the parameter file on top when
 /// `params_file` is not empty; a bad file throws ToolError with apply_params_file's message.
+/// The library's defaults as the replay tools use them: the linear baseline on (the evaluation
+/// compares against it).
+PipelineConfig replay_defaults();
+
 PipelineConfig config_for_sequence(const Sequence& seq, const std::string& params_file);
 
 /// A pipeline initialised with `config`, on the heap (it holds its whole ~9.5 MiB budget
