@@ -347,7 +347,6 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
 
   const auto lines = read_lines(depth_list);
   double previous = -1e300;
-  std::vector<SequenceFrame> all_frames;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const TextLocation at{depth_list, i + 1};
     const std::string body = strip_comment(lines[i]);
