@@ -132,9 +132,27 @@ Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t coun
 void MarkovPredictor::predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
                                   const DepthSweep& depth, PathPrediction* out) noexcept {
   const std::size_t l = library_.size();
-  const Eigen::Vector2f origin = obstacle.position.head<2>();
+  const Belief env = sweep_paths(obstacle, map, depth, out);
+  const Belief post = update_belief(obstacle.track_id, env);
+  const std::size_t best = choose_path(post, *out);
+  for (std::size_t i = 0; i < kMaxPaths; ++i) {
+    out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;
+    if (i >= l) {
+      out->free_distance[i] = 0.0f;
+      out->observed_distance[i] = 0.0f;
+    }
+  }
+  out->chosen = best;
+  out->failed = !out->path_free(best);
+  write_chosen_path(paths_[best], obstacle.position.z(), out);
+}
 
-  // Sample every path and sweep the footprint along it: Dist_i.
+MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstacle,
+                                                     const OccupancyQuery& map,
+                                                     const DepthSweep& depth,
+                                                     PathPrediction* out) noexcept {
+  const std::size_t l = library_.size();
+  const Eigen::Vector2f origin = obstacle.position.head<2>();
   out->track_id = obstacle.track_id;
   out->num_paths = l;
   out->free_mask = 0;
@@ -168,13 +186,16 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
   if (!env_ok) {
     for (std::size_t i = 0; i < l; ++i) env[i] = 1.0 / static_cast<double>(l);
   }
+  return env;
+}
 
-  // Belief update. prior = P(t) * P_trans, or P_init for a new track; post = prior (.) P_env,
-  // normalised, is what the choice is made on. kCompound keeps post for the next frame,
-  // kChoiceOnly keeps prior.
-  const BeliefUpdate mode = config_.belief_update;
+MarkovPredictor::Belief MarkovPredictor::update_belief(std::uint32_t track_id,
+                                                       const Belief& env) noexcept {
+  // prior = P(t) * P_trans, or P_init for a new track; post = prior (.) P_env, normalised, is
+  // what the choice is made on. kCompound keeps post for the next frame, kChoiceOnly keeps prior.
+  const std::size_t l = library_.size();
   bool inserted = false;
-  Belief* state = beliefs_.find_or_insert(obstacle.track_id, inserted);
+  Belief* state = beliefs_.find_or_insert(track_id, inserted);
   const bool fresh = inserted || state == nullptr;
   Belief prior{};
   if (fresh) {
@@ -195,15 +216,24 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
     for (std::size_t j = 0; j < l; ++j) post[j] = initial_[j] * env[j];
     if (!normalise(l, &post)) post = env;
   }
+  const BeliefUpdate mode = config_.belief_update;
   if (mode == BeliefUpdate::kChoiceOnly && !normalise(l, &prior)) prior = initial_;
+  if (state != nullptr) {  // nullptr only if the table were full (it cannot be)
+    *state = mode == BeliefUpdate::kCompound ? post : prior;
+  }
+  return post;
+}
 
+std::size_t MarkovPredictor::choose_path(const Belief& post,
+                                         const PathPrediction& out) const noexcept {
   // Most likely path (among the free ones when choose_free and any is free). Exact ties go to
   // the one nearer the straight path, then (mirror pairs) to the one seen free for longer.
+  const std::size_t l = library_.size();
   const float centre = library_.center_index();
-  const bool only_free = config_.choose_free && out->any_free;
+  const bool only_free = config_.choose_free && out.any_free;
   std::size_t best = l;
   for (std::size_t i = 0; i < l; ++i) {
-    if (only_free && !out->path_free(i)) continue;
+    if (only_free && !out.path_free(i)) continue;
     if (best == l) {
       best = i;
       continue;
@@ -214,23 +244,10 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
     const bool tie = post[i] == post[best];
     const bool tie_nearer = tie && off_i < off_best;
     const bool tie_seen =
-        tie && off_i == off_best && out->observed_distance[i] > out->observed_distance[best];
+        tie && off_i == off_best && out.observed_distance[i] > out.observed_distance[best];
     if (better || tie_nearer || tie_seen) best = i;
   }
-  if (best == l) best = 0;  // l >= 1, so only reached if no path was considered (cannot happen)
-  if (state != nullptr) {   // nullptr only if the table were full (it cannot be)
-    *state = mode == BeliefUpdate::kCompound ? post : prior;
-  }
-  for (std::size_t i = 0; i < kMaxPaths; ++i) {
-    out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;
-    if (i >= l) {
-      out->free_distance[i] = 0.0f;
-      out->observed_distance[i] = 0.0f;
-    }
-  }
-  out->chosen = best;
-  out->failed = !out->path_free(best);
-  write_chosen_path(paths_[best], obstacle.position.z(), out);
+  return best == l ? 0 : best;  // l >= 1: best == l only if no path was considered (cannot be)
 }
 
 }  // namespace dynamap

@@ -121,6 +121,12 @@ class MarkovPredictor {
  private:
   void predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
                    const DepthSweep& depth, PathPrediction* out) noexcept;
+  // The steps of predict_one: sample and sweep every path (distances and masks into `out`) and
+  // return P_env; update the track's belief with P_env and return the posterior; pick the path.
+  Belief sweep_paths(const ObstacleState& obstacle, const OccupancyQuery& map,
+                     const DepthSweep& depth, PathPrediction* out) noexcept;
+  Belief update_belief(std::uint32_t track_id, const Belief& env) noexcept;
+  std::size_t choose_path(const Belief& post, const PathPrediction& out) const noexcept;
 
   MarkovPredictorConfig config_{};
   PathLibrary library_{};
