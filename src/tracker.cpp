@@ -195,7 +195,14 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   t.positions.push(xy, config_.history_length + 1);
   t.edges.push(m.edges, config_.history_length + 1);
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
+  update_size(t, m);
+  t.out.missed_frames = 0;
+  ++t.out.hits;
+  t.out.last_seen = stamp;
+  vote(t);
+}
 
+void Tracker::update_size(Track& t, const Measurement& m) noexcept {
   if (!t.out.size_fixed) {
     t.size = m.size;
     if (m.in_view && m.near_enough) {
@@ -229,11 +236,9 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
       t.size_sum.setZero();
     }
   }
+}
 
-  t.out.missed_frames = 0;
-  ++t.out.hits;
-  t.out.last_seen = stamp;
-
+void Tracker::vote(Track& t) noexcept {
   // Continuity filter over the measured history (oldest first), then the vote.
   std::array<Eigen::Vector2f, kMaxTrackHistory> ordered;
   const std::size_t n = t.positions.size();
@@ -242,19 +247,18 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   std::size_t span = config_.continuity.displacement_frames;
   const std::size_t early_span = config_.early_displacement_frames;
   if (n < span + 2 && early_span > 0 && n >= 2 * early_span + 1) span = early_span;
-  if (continuity_score(ordered.data(), n, span, &c_con)) {
-    t.out.continuity = c_con;
-    const float speed = t.kf.velocity().norm();
-    const ContinuityFilter filter(config_.continuity);
-    const bool vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t);
-    t.voter.push(vote, config_.continuity);
-    t.dynamic_streak = vote ? t.dynamic_streak + 1 : 0;
-    if (!vote) t.every_vote_dynamic = false;
-    const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
-                       (t.every_vote_dynamic || t.was_dynamic);
-    t.label = t.voter.dynamic() || early;
-    if (t.label) t.was_dynamic = true;
-  }
+  if (!continuity_score(ordered.data(), n, span, &c_con)) return;
+  t.out.continuity = c_con;
+  const float speed = t.kf.velocity().norm();
+  const ContinuityFilter filter(config_.continuity);
+  const bool dynamic_vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t);
+  t.voter.push(dynamic_vote, config_.continuity);
+  t.dynamic_streak = dynamic_vote ? t.dynamic_streak + 1 : 0;
+  if (!dynamic_vote) t.every_vote_dynamic = false;
+  const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
+                     (t.every_vote_dynamic || t.was_dynamic);
+  t.label = t.voter.dynamic() || early;
+  if (t.label) t.was_dynamic = true;
 }
 
 Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_map_camera,

@@ -213,6 +213,10 @@ class Tracker {
   void start_track(Track& t, const Measurement& m, Stamp stamp) noexcept;
   void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
                      Stamp stamp) noexcept;
+  // The steps of correct_track after the filter update: size estimate (freeze, growth) and
+  // the continuity filter's vote with the label.
+  void update_size(Track& t, const Measurement& m) noexcept;
+  void vote(Track& t) noexcept;
   void publish() noexcept;
 
   TrackerConfig config_{};
