@@ -100,7 +100,8 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
     }
   }
   if (c.max_blocks < 1 || c.max_blocks > kMaxMapBlocks || c.max_rays_per_frame < 1 ||
-      c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1) {
+      c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1 ||
+      c.max_voxel_visits_per_frame > kMaxVoxelVisitsPerFrame) {
     return Status::kInvalidArgument;
   }
   if (c.free_ray_early_stop < 0) return Status::kInvalidArgument;
@@ -924,8 +925,7 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   }
   if (const Status s = validate_pose(T_map_camera); !ok(s)) return s;
   // Keep the local region well inside the key range.
-  const float limit = 0.5f * static_cast<float>(kKeyHalfRange) * resolution_;
-  if ((T_map_camera.translation.array().abs() > limit).any()) return Status::kInvalidArgument;
+  if (const Status s = check_pose_range(T_map_camera); !ok(s)) return s;
   if (frames_ > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
 
   // Input accepted: from here on the frame always completes.
