@@ -967,8 +967,10 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
         fast_floor(origin_[static_cast<int>(a)] * inv_resolution_) >> kBlockBits;
     key_base_[a] = (camera_block - (1 << (kKeyBlockBits - 1))) * kBlockEdge;
   }
-  down_dir_ << R.col(1), 0.f;
-  forward_dir_ << R.col(2), 0.f;
+  // Element by element: the same values as a comma initialiser from R.col(), without the
+  // packet load past R's end that GCC 12 -O3 reports (-Warray-bounds) once this is inlined.
+  down_dir_ = Eigen::Array4f(R(0, 1), R(1, 1), R(2, 1), 0.f);
+  forward_dir_ = Eigen::Array4f(R(0, 2), R(1, 2), R(2, 2), 0.f);
   if (grid_enabled_) {
     for (int a = 0; a < 3; ++a) {
       const std::size_t i = static_cast<std::size_t>(a);

@@ -148,7 +148,6 @@ class Pipeline {
 
   DetectionList detections_{};
   std::array<ObstacleState, kMaxTracks> predictor_input_{};
-  std::array<std::uint32_t, kMaxTracks> predicted_index_{};
 
   std::array<StageStats, kStageCount> stage_stats_{};
   StageStats frame_stats_{};
