@@ -391,6 +391,10 @@ TEST(Replay, ParameterFileKeysAreCompleteUniqueAndTheFileMustBeAFile) {
       replay_with_params("duplicate_map", "map:\n  resolution: 0.1\nmap:\n  max_depth: 4\n");
   EXPECT_NE(dup_map.exit_code, 0);
   EXPECT_NE(dup_map.output.find("duplicate key 'map'"), std::string::npos) << dup_map.output;
+  const auto [params3, list_key] = replay_with_params("list_key", "map:\n  [a, b]: 1\n");
+  EXPECT_NE(list_key.exit_code, 0);
+  EXPECT_NE(list_key.output.find(params3 + ":2: not a parameter"), std::string::npos)
+      << list_key.output;
   const std::string dir = fresh_dir("params_dir");
   ASSERT_EQ(std::system(("mkdir -p '" + dir + "'").c_str()), 0);
   r = run_replay(corridor_sequence() + " --out " + fresh_dir("params_dir_out") + " --params " +

@@ -311,7 +311,12 @@ std::string apply_params_file(const std::string& path, PipelineConfig& config) {
   if (!root.IsMap()) return path + ": the parameter file must be a map of keys to values";
   PipelineConfig candidate = config;  // nothing changes unless the whole file is good
   std::map<std::string, std::string> seen;
-  std::string e = apply_node(path, root, "", candidate, seen);
+  std::string e;
+  try {
+    e = apply_node(path, root, "", candidate, seen);
+  } catch (const YAML::Exception& ex) {  // e.g. a key that is a list, not a scalar
+    return path + ":" + std::to_string(ex.mark.line + 1) + ": not a parameter: " + ex.msg;
+  }
   if (!e.empty()) return e;
   const ConfigError ce = validate(candidate);
   if (!ce.ok()) return path + ": invalid value for '" + ce.field + "': " + ce.reason;
