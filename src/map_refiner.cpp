@@ -8,6 +8,16 @@
 namespace dynamap {
 
 namespace {
+/// A voxel index (float, integral) clamped to the map's key range, then converted: the
+/// conversion is defined for any input, also +-inf and the NaN an inflated box of extreme
+/// corners can give (inf - inf).
+std::int64_t to_key_index(float x) noexcept {
+  constexpr float kLimit = static_cast<float>(OccupancyMap::kKeyHalfRange);
+  if (!(x >= -kLimit)) return -static_cast<std::int64_t>(OccupancyMap::kKeyHalfRange);
+  if (!(x <= kLimit - 1.f)) return OccupancyMap::kKeyHalfRange - 1;
+  return static_cast<std::int64_t>(x);
+}
+
 bool box_valid(const Box3& b) noexcept {
   return b.min.allFinite() && b.max.allFinite() && (b.min.array() <= b.max.array()).all();
 }
@@ -21,7 +31,8 @@ Status MapRefiner::init(const MapRefinerConfig& config) noexcept {
       config.floor_margin < 0.f) {
     return Status::kInvalidArgument;
   }
-  if (config.max_voxels_per_box < 1 || config.min_support_voxels < 1) {
+  if (config.max_voxels_per_box < 1 || config.max_voxels_per_box > kMaxRefinerVoxelsPerBox ||
+      config.min_support_voxels < 1) {
     return Status::kInvalidArgument;
   }
   config_ = config;
@@ -78,15 +89,15 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
     // Voxels whose centres lie in the search box: index range per axis.
     std::int64_t n_total = 1;
     std::int64_t i0[3], i1[3];
-    for (int a = 0; a < 3; ++a) {
-      // Clamped to the map's key range so absurd (but finite) boxes cannot overflow.
-      constexpr float kLimit = static_cast<float>(OccupancyMap::kKeyHalfRange);
-      i0[a] = static_cast<std::int64_t>(std::max(std::ceil(search.min[a] / res - 0.5f), -kLimit));
-      i1[a] =
-          static_cast<std::int64_t>(std::min(std::floor(search.max[a] / res - 0.5f), kLimit - 1.f));
-      n_total *= std::max<std::int64_t>(0, i1[a] - i0[a] + 1);
-    }
     const auto cap = static_cast<std::int64_t>(config_.max_voxels_per_box);
+    for (int a = 0; a < 3; ++a) {
+      // Both ends clamped to the map's key range before the conversion (to_key_index), so an
+      // absurd box, far on either side, converts in range.
+      i0[a] = to_key_index(std::ceil(search.min[a] / res - 0.5f));
+      i1[a] = to_key_index(std::floor(search.max[a] / res - 0.5f));
+      // Saturated at cap + 1 (only "over the cap" matters): three axes of 2^21 would overflow.
+      n_total = std::min(n_total * std::max<std::int64_t>(0, i1[a] - i0[a] + 1), cap + 1);
+    }
     if (n_total > cap) ++stats_.truncated;
 
     // Pass 1: occupied voxels, block-wise through the map (skips unallocated blocks).

@@ -100,7 +100,8 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
     }
   }
   if (c.max_blocks < 1 || c.max_blocks > kMaxMapBlocks || c.max_rays_per_frame < 1 ||
-      c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1) {
+      c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1 ||
+      c.max_voxel_visits_per_frame > kMaxVoxelVisitsPerFrame) {
     return Status::kInvalidArgument;
   }
   if (c.free_ray_early_stop < 0) return Status::kInvalidArgument;
@@ -924,8 +925,7 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   }
   if (const Status s = validate_pose(T_map_camera); !ok(s)) return s;
   // Keep the local region well inside the key range.
-  const float limit = 0.5f * static_cast<float>(kKeyHalfRange) * resolution_;
-  if ((T_map_camera.translation.array().abs() > limit).any()) return Status::kInvalidArgument;
+  if (const Status s = check_pose_range(T_map_camera); !ok(s)) return s;
   if (frames_ > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
 
   // Input accepted: from here on the frame always completes.
@@ -967,8 +967,10 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
         fast_floor(origin_[static_cast<int>(a)] * inv_resolution_) >> kBlockBits;
     key_base_[a] = (camera_block - (1 << (kKeyBlockBits - 1))) * kBlockEdge;
   }
-  down_dir_ << R.col(1), 0.f;
-  forward_dir_ << R.col(2), 0.f;
+  // Element by element: the same values as a comma initialiser from R.col(), without the
+  // packet load past R's end that GCC 12 -O3 reports (-Warray-bounds) once this is inlined.
+  down_dir_ = Eigen::Array4f(R(0, 1), R(1, 1), R(2, 1), 0.f);
+  forward_dir_ = Eigen::Array4f(R(0, 2), R(1, 2), R(2, 2), 0.f);
   if (grid_enabled_) {
     for (int a = 0; a < 3; ++a) {
       const std::size_t i = static_cast<std::size_t>(a);

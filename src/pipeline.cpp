@@ -93,20 +93,26 @@ Status Pipeline::check_frame(const Frame& frame) const noexcept {
   if (!ok(s)) return s;
   s = validate_pose(frame.T_map_camera);
   if (!ok(s)) return s;
+  // A finite pose beyond the map's key range cannot be integrated (and the other stages' float
+  // geometry degrades there): the whole frame is refused, not just its map update.
+  s = map_.check_pose_range(frame.T_map_camera);
+  if (!ok(s)) return s;
   if (has_stamp_ && frame.stamp <= last_stamp_) return Status::kTimeNotIncreasing;
   return Status::kOk;
+}
+
+Status Pipeline::reject(const Frame& frame, Status why, FrameOutput& out) noexcept {
+  if (initialized_) ++counters_.frames_rejected;
+  out.status = why;
+  out.stamp = frame.stamp;
+  out.counters = counters_;
+  return why;
 }
 
 Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   // Every check happens before any stage runs, so a rejected frame changes nothing.
   const Status bad = check_frame(frame);
-  if (!ok(bad)) {
-    if (initialized_) ++counters_.frames_rejected;
-    out.status = bad;
-    out.stamp = frame.stamp;
-    out.counters = counters_;
-    return bad;
-  }
+  if (!ok(bad)) return reject(frame, bad, out);
   const std::uint64_t t_start = clock_();
   std::uint64_t t_prev = t_start;
   std::array<std::uint64_t, kStageCount> stage_ns{};
@@ -122,8 +128,11 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   };
   FrameWork work;
 
-  // 1. Occupancy update. Inputs were validated above, so the map cannot refuse the frame.
-  (void)map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp);
+  // 1. Occupancy update. check_frame() applied the map's own checks, so it does not refuse the
+  // frame; if it ever did, it changed nothing, and neither has any other stage yet.
+  const Status map_status =
+      map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp);
+  if (!ok(map_status)) return reject(frame, map_status, out);
   {
     const IntegrationStats& ms = map_.last_stats();
     work.rays = ms.rays;

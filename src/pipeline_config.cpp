@@ -1,4 +1,6 @@
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "dynamap/pipeline_config.hpp"
 
@@ -23,7 +25,64 @@ struct Checker {
   }
 };
 
+/// Saturating product (worst-case figures of absurd configurations must not wrap).
+std::size_t mul(std::size_t a, std::size_t b) noexcept {
+  if (a != 0 && b > std::numeric_limits<std::size_t>::max() / a) {
+    return std::numeric_limits<std::size_t>::max();
+  }
+  return a * b;
+}
+
+/// Saturating sum.
+std::size_t add(std::size_t a, std::size_t b) noexcept {
+  return a > std::numeric_limits<std::size_t>::max() - b ? std::numeric_limits<std::size_t>::max()
+                                                         : a + b;
+}
+
+/// Non-negative finite float to a count, saturating (NaN and negatives give 0).
+std::size_t count_of(float x) noexcept {
+  if (!(x > 0.f)) return 0;
+  if (!(x < 1e18f)) return std::numeric_limits<std::size_t>::max();
+  return static_cast<std::size_t>(std::ceil(x));
+}
+
 }  // namespace
+
+WorstCaseWork worst_case_work(const PipelineConfig& c) noexcept {
+  WorstCaseWork w;
+  const OccupancyMapConfig& m = c.map;
+  // Sampled pixels at the finest stride the pipeline may use (its configured one).
+  const auto sampled = [&](int size) -> std::size_t {
+    const int margin = std::max(m.pixel_margin, 0);
+    const int stride = std::max(m.pixel_stride, 1);
+    return size > 2 * margin ? static_cast<std::size_t>((size - 2 * margin + stride - 1) / stride)
+                             : 0;
+  };
+  w.rays = std::min(mul(sampled(c.camera.width), sampled(c.camera.height)), m.max_rays_per_frame);
+  // A ray stays in the local region around the camera: at most the region's voxel span per axis.
+  std::size_t ray_voxels = 1;
+  for (int a = 0; a < 3; ++a) {
+    ray_voxels = add(ray_voxels, mul(2, count_of(m.local_half_extent[a] / m.resolution)));
+  }
+  w.voxel_visits = std::min(mul(w.rays, ray_voxels), m.max_voxel_visits_per_frame);
+  w.detections = c.detector.max_detections;
+  w.refiner_voxels = mul(mul(w.detections, 2), c.refiner.max_voxels_per_box);
+  w.tracks = kMaxTracks;
+  w.cleaner_voxels = c.cleaner.max_voxels_per_frame;
+  const PathLibraryConfig& paths = c.predictor.paths;
+  w.path_samples = mul(mul(w.tracks, paths.num_paths + 1), kMaxPathSamples);
+  const float horizon =
+      std::max(paths.horizon_distance, paths.slow_speed * paths.slow_horizon_time);
+  const std::size_t per_path =
+      add(count_of(3.f * horizon / m.resolution), 3 * (kMaxPathSamples - 1));
+  const ClearanceConfig& cl = c.predictor.clearance;
+  const std::size_t per_track_path = mul(mul(cl.max_lines, cl.height_levels), per_path);
+  const std::size_t sweeps = c.predictor.unknown_weight < 1.f ? 2 : 1;
+  const std::size_t markov = mul(mul(w.tracks, paths.num_paths), mul(sweeps, per_track_path));
+  const std::size_t linear = c.run_linear_baseline ? mul(w.tracks, per_track_path) : 0;
+  w.predictor_voxel_steps = add(markov, linear);
+  return w;
+}
 
 ConfigError validate(const PipelineConfig& c) noexcept {
   Checker k;
@@ -40,6 +99,8 @@ ConfigError validate(const PipelineConfig& c) noexcept {
 
   // Occupancy map.
   k.positive(c.map.resolution, "map.resolution");
+  k.require(c.map.resolution >= kMinMapResolution && c.map.resolution <= kMaxMapResolution,
+            "map.resolution", "must be in [kMinMapResolution, kMaxMapResolution] (0.01..10 m)");
   k.probability(c.map.prob_hit, "map.prob_hit");
   k.probability(c.map.prob_miss, "map.prob_miss");
   k.probability(c.map.prob_min, "map.prob_min");
@@ -57,12 +118,18 @@ ConfigError validate(const PipelineConfig& c) noexcept {
   k.require(c.map.pixel_margin >= 0, "map.pixel_margin", "must be >= 0");
   k.require(c.map.local_half_extent.allFinite() && (c.map.local_half_extent.array() > 0.f).all(),
             "map.local_half_extent", "must be finite and > 0 on every axis");
+  k.require((c.map.local_half_extent.array() <= kMaxLocalHalfExtentVoxels * c.map.resolution).all(),
+            "map.local_half_extent",
+            "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "
+            "(bounds the length of every ray)");
   k.require(c.map.max_blocks >= 1 && c.map.max_blocks <= kMaxMapBlocks, "map.max_blocks",
             "must be in 1..kMaxMapBlocks");
   k.require(c.map.max_rays_per_frame >= 1 && c.map.max_rays_per_frame <= kMaxRaysPerFrame,
             "map.max_rays_per_frame", "must be in 1..kMaxRaysPerFrame");
-  k.require(c.map.max_voxel_visits_per_frame >= 1, "map.max_voxel_visits_per_frame",
-            "must be >= 1");
+  k.require(c.map.max_voxel_visits_per_frame >= 1 &&
+                c.map.max_voxel_visits_per_frame <= kMaxPipelineVoxelVisitsPerFrame,
+            "map.max_voxel_visits_per_frame",
+            "must be in 1..kMaxPipelineVoxelVisitsPerFrame (2'000'000)");
   k.require(c.map.free_ray_early_stop >= 0, "map.free_ray_early_stop",
             "must be >= 0 (0: exact walk from the camera)");
 
@@ -119,8 +186,49 @@ ConfigError validate(const PipelineConfig& c) noexcept {
               "predictor.depth_check.max_depth", "must be finite and > min_depth");
   }
 
+  // Work caps of the later stages.
+  k.require(
+      c.refiner.max_voxels_per_box >= 1 && c.refiner.max_voxels_per_box <= kMaxRefinerVoxelsPerBox,
+      "refiner.max_voxels_per_box", "must be in 1..kMaxRefinerVoxelsPerBox (1'048'576)");
+  k.require(c.cleaner.max_voxels_per_frame >= 1 &&
+                c.cleaner.max_voxels_per_frame <= kMaxCleanerVoxelsPerFrame,
+            "cleaner.max_voxels_per_frame", "must be in 1..kMaxCleanerVoxelsPerFrame (1'000'000)");
+  k.require(
+      c.cleaner.max_purge_per_frame >= 1 && c.cleaner.max_purge_per_frame <= kCleanHistoryCapacity,
+      "cleaner.max_purge_per_frame", "must be in 1..kCleanHistoryCapacity (8192)");
+  k.require(c.cleaner.older_boxes_per_frame <= kMaxBoxHistory, "cleaner.older_boxes_per_frame",
+            "must be in 0..kMaxBoxHistory");
+  k.require(
+      c.predictor.clearance.max_lines >= 1 && c.predictor.clearance.max_lines <= kMaxClearanceLines,
+      "predictor.clearance.max_lines", "must be in 1..kMaxClearanceLines");
+  k.require(c.predictor.clearance.height_levels >= 1 &&
+                c.predictor.clearance.height_levels <= kMaxHeightLevels,
+            "predictor.clearance.height_levels", "must be in 1..kMaxHeightLevels");
+  {
+    const PathLibraryConfig& pl = c.predictor.paths;
+    k.require(std::isfinite(pl.horizon_distance) && pl.horizon_distance > 0.f &&
+                  std::isfinite(pl.slow_speed) && pl.slow_speed >= 0.f &&
+                  std::isfinite(pl.slow_horizon_time) && pl.slow_horizon_time > 0.f,
+              "predictor.paths.horizon_distance",
+              "horizon_distance and slow_horizon_time must be finite and > 0, slow_speed >= 0");
+  }
+  // The derived worst case of the whole frame (only once every field above is in range).
+  if (!k.failed()) {
+    const WorstCaseWork w = worst_case_work(c);
+    k.require(w.refiner_voxels <= kMaxRefinerVoxelsPerFrame, "refiner.max_voxels_per_box",
+              "detector.max_detections x 2 passes x this must be <= kMaxRefinerVoxelsPerFrame "
+              "(2'097'152)");
+    k.require(w.predictor_voxel_steps <= kMaxPredictorVoxelStepsPerFrame,
+              "predictor.paths.horizon_distance",
+              "the prediction sweep's worst case (kMaxTracks x paths x clearance lines x height "
+              "levels x horizon / map.resolution voxels, see worst_case_work) exceeds "
+              "kMaxPredictorVoxelStepsPerFrame (4'000'000): shorten the horizon, use fewer "
+              "paths, lines or height levels, or a coarser map.resolution");
+  }
+
   // Timing budgets.
-  k.require(c.budgets.max_pixel_stride >= 1, "budgets.max_pixel_stride", "must be >= 1");
+  k.require(c.budgets.max_pixel_stride >= 1 && c.budgets.max_pixel_stride <= kMaxImageWidth,
+            "budgets.max_pixel_stride", "must be in 1..kMaxImageWidth");
   k.require(!c.budgets.adaptive_stride || c.budgets.max_pixel_stride >= c.map.pixel_stride,
             "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");
   k.require(std::isfinite(c.budgets.restore_fraction) && c.budgets.restore_fraction > 0.f &&

@@ -3,29 +3,66 @@
 #include <cstring>
 
 namespace dynamap {
+namespace {
+/// Pause while waiting out a submit() in progress at stop (it copies one frame, ~0.1 ms).
+constexpr std::uint64_t kStopPollNs = 20'000;
+}  // namespace
 
 Status Runner::start(const RunnerConfig& config) noexcept {
   if (!pipeline_.initialized()) return Status::kNotInitialized;
   if (worker_.joinable()) return Status::kInvalidArgument;
   config_ = config;
-  stop_requested_.store(false, std::memory_order_relaxed);
+  stop_requested_.store(false, std::memory_order_seq_cst);
   return worker_.start(&Runner::worker_entry, this, config.thread);
 }
 
 void Runner::stop() noexcept {
-  if (!worker_.joinable()) return;
-  stop_requested_.store(true, std::memory_order_release);
-  (void)worker_.join();
+  stop_requested_.store(true, std::memory_order_seq_cst);
+  if (worker_.joinable()) {
+    (void)worker_.join();  // the worker drops what is queued before it returns
+  } else {
+    drop_queued();  // never started: this thread is the only consumer
+  }
+}
+
+void Runner::drop_queued() noexcept {
+  // Dekker-style hand-shake, all seq_cst: submit() raises submitting_ and then reads the stop
+  // flag; stop() set the flag before this reads submitting_. So either that submit() saw the
+  // flag and refuses, or this sees it in progress and waits until its frame is in the ring.
+  while (submitting_.load(std::memory_order_seq_cst) != 0) {
+    (void)platform::sleep_for_ns(kStopPollNs);
+  }
+  while (inputs_.try_front() != nullptr) {
+    inputs_.pop_front();
+    dropped_at_stop_.fetch_add(1, std::memory_order_relaxed);
+  }
 }
 
 Status Runner::submit(const Frame& frame) noexcept {
-  const DepthView& d = frame.depth;
-  if (d.data == nullptr) {
-    rejected_bad_.fetch_add(1, std::memory_order_relaxed);
-    return Status::kNullData;
+  // Once the stop request is seen, calls refuse without announcing themselves, so the worker's
+  // wait in drop_queued() covers at most the one call that straddled the request.
+  if (stop_requested_.load(std::memory_order_seq_cst)) {
+    rejected_stopped_.fetch_add(1, std::memory_order_relaxed);
+    return Status::kStopped;
   }
-  if (d.width <= 0 || d.height <= 0 || d.width > kMaxImageWidth || d.height > kMaxImageHeight ||
-      d.stride_bytes < d.width * static_cast<int>(sizeof(std::uint16_t))) {
+  submitting_.fetch_add(1, std::memory_order_seq_cst);
+  if (stop_requested_.load(std::memory_order_seq_cst)) {
+    submitting_.fetch_sub(1, std::memory_order_seq_cst);
+    rejected_stopped_.fetch_add(1, std::memory_order_relaxed);
+    return Status::kStopped;
+  }
+  const Status s = push(frame);
+  submitting_.fetch_sub(1, std::memory_order_seq_cst);
+  return s;
+}
+
+Status Runner::push(const Frame& frame) noexcept {
+  const DepthView& d = frame.depth;
+  if (const Status s = validate_depth_layout(d); !ok(s)) {
+    rejected_bad_.fetch_add(1, std::memory_order_relaxed);
+    return s;
+  }
+  if (d.width > kMaxImageWidth || d.height > kMaxImageHeight) {
     rejected_bad_.fetch_add(1, std::memory_order_relaxed);
     return Status::kWrongSize;
   }
@@ -49,8 +86,10 @@ RunnerCounters Runner::counters() const noexcept {
   c.submitted = submitted_.load(std::memory_order_relaxed);
   c.rejected_full = inputs_.drops();
   c.rejected_bad = rejected_bad_.load(std::memory_order_relaxed);
+  c.rejected_stopped = rejected_stopped_.load(std::memory_order_relaxed);
   c.processed = processed_.load(std::memory_order_relaxed);
   c.failed = failed_.load(std::memory_order_relaxed);
+  c.dropped_at_stop = dropped_at_stop_.load(std::memory_order_relaxed);
   c.published = outputs_.publish_count();
   return c;
 }
@@ -61,12 +100,14 @@ void Runner::worker_entry(void* self) noexcept {
 
 void Runner::worker_loop() noexcept {
   for (;;) {
+    // Checked before every frame, so after a stop request at most the frame in progress is
+    // finished: stop() returns within one frame's processing time, however full the ring.
+    if (stop_requested_.load(std::memory_order_seq_cst)) {
+      drop_queued();
+      return;
+    }
     const FrameSlot* slot = inputs_.try_front();
     if (slot == nullptr) {
-      // Drain everything queued before honouring stop, so no accepted frame is lost.
-      if (stop_requested_.load(std::memory_order_acquire) && inputs_.try_front() == nullptr) {
-        return;
-      }
       (void)platform::sleep_for_ns(config_.idle_sleep_ns);
       continue;
     }

@@ -41,6 +41,7 @@ Status TrackerConfig::validate() const noexcept {
       size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
       noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
       std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
+      std::isfinite(max_coast_time) && max_coast_time > 0.f &&
 
       history_length + 1 <= kMaxTrackHistory &&
       continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
@@ -277,9 +278,14 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
   const Eigen::Vector3f camera = T_map_camera.translation;
   const float dt = has_stamp_ ? seconds_between(last_stamp_, stamp) : 0.f;
 
-  // --- predict every live track to this frame ---
+  // --- tracks unmeasured for longer than max_coast_time end; the rest are predicted ---
   for (Track& t : tracks_) {
     if (!t.active) continue;
+    if (seconds_between(t.last_measured_stamp, stamp) > config_.max_coast_time) {
+      t.active = false;
+      ++dropped_tracks_;
+      continue;
+    }
     if (dt > 0.f) (void)t.kf.predict(dt);
     ++t.out.age;
   }

@@ -3,6 +3,7 @@
 // bounded work, bad input, zero allocations.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <memory>
 
 #include "alloc_guard.hpp"
@@ -182,6 +183,8 @@ TEST_F(MapRefinerTest, BadInputChangesNothing) {
   bad = {};
   bad.max_voxels_per_box = 0;
   EXPECT_EQ(refiner.init(bad), Status::kInvalidArgument);
+  bad.max_voxels_per_box = kMaxRefinerVoxelsPerBox + 1;  // every work cap has an upper bound
+  EXPECT_EQ(refiner.init(bad), Status::kInvalidArgument);
   EXPECT_EQ(refiner.set_ground_height(NAN), Status::kNonFinite);
   EXPECT_FLOAT_EQ(refiner.config().inflate, 1.15f);
   EXPECT_FLOAT_EQ(refiner.config().ground_height, 0.f);
@@ -242,6 +245,29 @@ TEST(MapRefinerEndToEnd, DetectorBoxesRefinedAgainstIntegratedMap) {
       EXPECT_NEAR(dets[i].box.min.z(), 0.2f, 1e-4f) << i;
     }
     EXPECT_NEAR(dets[i].box.min.x(), truth.min.x(), 0.11f) << i;
+  }
+}
+
+// Finite but absurd boxes, far on either side of the key range or spanning all of it: the index
+// ranges are clamped on both sides before any conversion (UBSan: no overflow), and the work
+// stays within the cap.
+TEST_F(MapRefinerTest, FarAndHugeFiniteBoxesAreClampedToTheKeyRange) {
+  constexpr float kBig = std::numeric_limits<float>::max();
+  const Box3 boxes[] = {
+      Box3{Eigen::Vector3f::Constant(1e30f), Eigen::Vector3f::Constant(1.0001e30f)},
+      Box3{Eigen::Vector3f::Constant(-1.0001e30f), Eigen::Vector3f::Constant(-1e30f)},
+      Box3{Eigen::Vector3f::Constant(-1e30f), Eigen::Vector3f::Constant(1e30f)},
+      Box3{Eigen::Vector3f::Constant(-kBig), Eigen::Vector3f::Constant(kBig)},
+      Box3{Eigen::Vector3f::Constant(1e38f), Eigen::Vector3f::Constant(kBig)},  // inflates to NaN
+  };
+  CleanSet clean;
+  ASSERT_EQ(clean.insert(map->key_of(Eigen::Vector3f(2.25f, 0.f, 0.5f))), Status::kOk);
+  for (const Box3& b : boxes) {
+    Detection d;
+    d.raw_box = b;
+    d.box = b;
+    ASSERT_EQ(refiner.refine(*map, lookup_of(clean), &d, 1), Status::kOk);
+    EXPECT_LE(refiner.last_stats().refined + refiner.last_stats().unrefined, 1u);
   }
 }
 

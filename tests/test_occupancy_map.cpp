@@ -672,6 +672,22 @@ TEST(OccupancyMap, BadInputsReturnStatusAndLeaveMapUnchanged) {
   expect_rejected("non-unit quaternion", img.view, cam, scaled, next, Status::kNonUnitQuaternion);
   expect_rejected("same stamp", img.view, cam, pose, 10 * kFrameNs, Status::kTimeNotIncreasing);
   expect_rejected("older stamp", img.view, cam, pose, 9 * kFrameNs, Status::kTimeNotIncreasing);
+  // An odd stride would start every other row misaligned for uint16_t loads.
+  std::vector<std::uint16_t> wide(static_cast<std::size_t>(cam.width + 1) * (cam.height + 1), 2000);
+  const DepthView odd_stride{wide.data(), cam.width, cam.height, cam.width * 2 + 1};
+  expect_rejected("odd stride", odd_stride, cam, pose, next, Status::kWrongSize);
+  DepthView misaligned = odd_stride;
+  misaligned.stride_bytes = cam.width * 2;
+  misaligned.data = reinterpret_cast<const std::uint16_t*>(
+      reinterpret_cast<const std::uint8_t*>(wide.data()) + 1);
+  expect_rejected("misaligned data", misaligned, cam, pose, next, Status::kInvalidArgument);
+  for (const float far : {1e5f, 1e6f, 1e30f, std::numeric_limits<float>::max()}) {
+    Pose far_pose = pose;
+    far_pose.translation.x() = far;
+    expect_rejected("translation beyond the key range", img.view, cam, far_pose, next,
+                    Status::kOutOfRange);
+    EXPECT_EQ(map->check_pose_range(far_pose), Status::kOutOfRange);
+  }
   CameraIntrinsics bad_cam = cam;
   bad_cam.fx = std::numeric_limits<float>::quiet_NaN();
   expect_rejected("nan focal length", img.view, bad_cam, pose, next, Status::kInvalidArgument);
@@ -687,6 +703,9 @@ TEST(OccupancyMap, BadInputsReturnStatusAndLeaveMapUnchanged) {
   EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
   bad = OccupancyMapConfig{};
   bad.free_ray_early_stop = -1;
+  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
+  bad = OccupancyMapConfig{};
+  bad.max_voxel_visits_per_frame = 1'000'000'000'000;  // every work cap has an upper bound
   EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
   EXPECT_EQ(map->checksum(), sum);
   EXPECT_EQ(map->set_log_odds(Vec3(std::nanf(""), 0, 0), 1.f), Status::kNonFinite);

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -120,6 +121,64 @@ TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
   c = PipelineConfig{};
   c.map.free_ray_early_stop = -1;
   EXPECT_STREQ(validate(c).field, "map.free_ray_early_stop");
+}
+
+// Every work cap has an upper bound and the derived worst case of the frame is bounded: the
+// configurations that made a frame take seconds are refused by init(), naming the field.
+TEST(PipelineConfig, WorkCapsAndTheDerivedWorstCaseAreBounded) {
+  const WorstCaseWork d = worst_case_work(PipelineConfig{});
+  EXPECT_LE(d.voxel_visits, kMaxPipelineVoxelVisitsPerFrame);
+  EXPECT_LE(d.refiner_voxels, kMaxRefinerVoxelsPerFrame);
+  EXPECT_LE(d.cleaner_voxels, kMaxCleanerVoxelsPerFrame);
+  EXPECT_LE(d.predictor_voxel_steps, kMaxPredictorVoxelStepsPerFrame);
+  EXPECT_EQ(d.rays, 318u * 238u);  // every sampled pixel (margin 2, stride 2)
+  EXPECT_EQ(d.detections, kMaxDetections);
+  EXPECT_EQ(d.tracks, kMaxTracks);
+
+  struct Case {
+    const char* name;
+    void (*edit)(PipelineConfig&);
+    const char* field;
+  };
+  const Case cases[] = {
+      {"visit cap 1e12",
+       [](PipelineConfig& c) { c.map.max_voxel_visits_per_frame = 1'000'000'000'000; },
+       "map.max_voxel_visits_per_frame"},
+      {"tiny voxels", [](PipelineConfig& c) { c.map.resolution = 0.001f; }, "map.resolution"},
+      {"huge extents", [](PipelineConfig& c) { c.map.local_half_extent.setConstant(1e6f); },
+       "map.local_half_extent"},
+      {"refiner cap 1e12",
+       [](PipelineConfig& c) { c.refiner.max_voxels_per_box = 1'000'000'000'000; },
+       "refiner.max_voxels_per_box"},
+      {"refiner cap x detections",
+       [](PipelineConfig& c) { c.refiner.max_voxels_per_box = kMaxRefinerVoxelsPerBox; },
+       "refiner.max_voxels_per_box"},
+      {"cleaner cap 1e12",
+       [](PipelineConfig& c) { c.cleaner.max_voxels_per_frame = 1'000'000'000'000; },
+       "cleaner.max_voxels_per_frame"},
+      {"purge cap", [](PipelineConfig& c) { c.cleaner.max_purge_per_frame = 0; },
+       "cleaner.max_purge_per_frame"},
+      {"prediction horizon 1e30",
+       [](PipelineConfig& c) { c.predictor.paths.horizon_distance = 1e30f; },
+       "predictor.paths.horizon_distance"},
+      {"fine voxels and every sweep",
+       [](PipelineConfig& c) {
+         c.map.resolution = 0.01f;
+         c.predictor.clearance.height_levels = kMaxHeightLevels;
+       },
+       "predictor.paths.horizon_distance"},
+      {"stride cap", [](PipelineConfig& c) { c.budgets.max_pixel_stride = 1'000'000; },
+       "budgets.max_pixel_stride"},
+  };
+  for (const Case& k : cases) {
+    PipelineConfig c;
+    k.edit(c);
+    const ConfigError e = validate(c);
+    EXPECT_EQ(e.status, Status::kInvalidArgument) << k.name;
+    EXPECT_STREQ(e.field, k.field) << k.name << ": " << e.reason;
+    auto p = std::make_unique<Pipeline>();
+    EXPECT_EQ(p->init(c), Status::kInvalidArgument) << k.name;
+  }
 }
 
 TEST(Pipeline, InitRejectsBadConfigAndProcessNeedsInit) {
@@ -270,6 +329,24 @@ TEST(Pipeline, EveryBadInputGetsItsStatusAndChangesNothing) {
   f = good;
   f.stamp = 20 * kFrameNs;  // the previous frame's stamp
   cases.push_back({"duplicated timestamp", f, Status::kTimeNotIncreasing});
+  // A stride that is not a whole number of pixels: every other row would be misaligned.
+  std::vector<std::uint16_t> odd(
+      static_cast<std::size_t>(cfg.camera.width + 1) * static_cast<std::size_t>(cfg.camera.height),
+      2000);
+  f = good;
+  f.depth = DepthView{odd.data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2 + 1};
+  cases.push_back({"odd stride", f, Status::kWrongSize});
+  // Finite poses the map cannot represent (its range is +-52 km at 0.1 m voxels): the frame is
+  // refused as a whole, before any stage runs.
+  for (const float far :
+       {1e5f, 1e6f, 1e30f, std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()}) {
+    f = good;
+    f.T_map_camera.translation.x() = far;
+    cases.push_back({"translation beyond the map's range", f, Status::kOutOfRange});
+  }
+  f = good;
+  f.T_map_camera.translation = Eigen::Vector3f(3e4f, -6e4f, 1.f);
+  cases.push_back({"jump beyond the map's range on y", f, Status::kOutOfRange});
 
   std::uint64_t rejected = 0;
   for (const Case& c : cases) {

@@ -240,6 +240,21 @@ TEST(Replay, NoUsableDepthFileIsAnError) {
   EXPECT_NE(r.output.find("none of the 2 frames could be replayed"), std::string::npos) << r.output;
 }
 
+// Poses beyond the map's range (groundtruth tx + 1e12): every frame is rejected and named
+// (out_of_range), and the replay ends at once with its error instead of hanging in the picture.
+TEST(Replay, PosesBeyondTheMapRangeAreRejectedAndCounted) {
+  const std::string d = small_copy("far_pose", 3);
+  const std::string gt = d + "/groundtruth.txt";
+  ASSERT_EQ(std::system(("awk '/^#/ {print; next} {$2 = $2 + 1e12; print}' '" + gt + "' > '" + gt +
+                         ".far' && mv '" + gt + ".far' '" + gt + "'")
+                            .c_str()),
+            0);
+  const RunResult r = run_replay(d + " --out " + fresh_dir("far_pose_out") + " --quiet");
+  EXPECT_NE(r.output.find("frame rejected: out_of_range"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("none of the 3 frames could be replayed"), std::string::npos) << r.output;
+  EXPECT_NE(r.exit_code, 0);
+}
+
 TEST(Replay, UnknownPoseConventionIsAUsageError) {
   const RunResult r = run_replay(corridor_sequence() + " --out " + fresh_dir("p") + " --poses x");
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -353,6 +368,37 @@ TEST(Replay, NegativeEarlyStopCountIsRefused) {
       replay_with_params("bad_early_stop", "map:\n  free_ray_early_stop: -3\n").result;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("map.free_ray_early_stop"), std::string::npos) << r.output;
+}
+
+// Every real field can be set (merge_rays_per_voxel was missing from the table); a key given
+// twice is refused with both places; a directory as the parameter file is a clear error.
+TEST(Replay, ParameterFileKeysAreCompleteUniqueAndTheFileMustBeAFile) {
+  RunResult r = replay_with_params("merge_rays",
+                                   "map:\n  merge_rays_per_voxel: false\ntracker:\n"
+                                   "  max_coast_time: 0.5\n",
+                                   "--max-frames 1 --quiet")
+                    .result;
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const auto [params, dup] = replay_with_params(
+      "duplicate_key", "map:\n  resolution: 0.1\n  max_depth: 4\n  resolution: 0.2\n");
+  EXPECT_NE(dup.exit_code, 0);
+  EXPECT_NE(dup.output.find(params + ":4: duplicate key 'map.resolution'"), std::string::npos)
+      << dup.output;
+  EXPECT_NE(dup.output.find(params + ":2"), std::string::npos) << dup.output;
+  const auto [params2, dup_map] =
+      replay_with_params("duplicate_map", "map:\n  resolution: 0.1\nmap:\n  max_depth: 4\n");
+  EXPECT_NE(dup_map.exit_code, 0);
+  EXPECT_NE(dup_map.output.find("duplicate key 'map'"), std::string::npos) << dup_map.output;
+  const auto [params3, list_key] = replay_with_params("list_key", "map:\n  [a, b]: 1\n");
+  EXPECT_NE(list_key.exit_code, 0);
+  EXPECT_NE(list_key.output.find(params3 + ":2: not a parameter"), std::string::npos)
+      << list_key.output;
+  const std::string dir = fresh_dir("params_dir");
+  ASSERT_EQ(std::system(("mkdir -p '" + dir + "'").c_str()), 0);
+  r = run_replay(corridor_sequence() + " --out " + fresh_dir("params_dir_out") + " --params " +
+                 dir);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find(dir + ": not a parameter file"), std::string::npos) << r.output;
 }
 
 }  // namespace

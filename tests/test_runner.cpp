@@ -1,4 +1,5 @@
 #include <atomic>
+#include <chrono>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -61,10 +62,116 @@ TEST(Runner, FullRingRejectsAndCountsWithoutBlocking) {
   f.stamp = 100;
   EXPECT_EQ(r->submit(f), Status::kCapacityExceeded);
   EXPECT_EQ(r->counters().rejected_full, 1u);
-  // Starting drains what was queued; stop() waits for it.
+  // Starting drains what was queued (stop() would drop what is still queued).
   ASSERT_EQ(r->start(), Status::kOk);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (r->counters().processed < kRunnerInputSlots &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
   r->stop();
   EXPECT_EQ(r->counters().processed, kRunnerInputSlots);
+  EXPECT_EQ(r->counters().dropped_at_stop, 0u);
+}
+
+TEST(Runner, SubmitRejectsAnOddStride) {
+  auto p = std::make_unique<Pipeline>();
+  const PipelineConfig cfg = tiny_config();
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  auto r = std::make_unique<Runner>(*p);
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height),
+                                2000);
+  Frame f;
+  f.depth = DepthView{px.data(), cfg.camera.width, cfg.camera.height - 1, cfg.camera.width * 2 + 1};
+  EXPECT_EQ(r->submit(f), Status::kWrongSize);
+  EXPECT_EQ(r->counters().rejected_bad, 1u);
+}
+
+// A sensor thread that never stops submitting: stop() still returns within about one frame's
+// processing time, submit() refuses from the request on, and every frame is accounted for.
+TEST(Runner, StopReturnsPromptlyWhileTheSensorKeepsSubmitting) {
+  auto p = std::make_unique<Pipeline>();
+  const PipelineConfig cfg = tiny_config();
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  auto r = std::make_unique<Runner>(*p);
+  ASSERT_EQ(r->start(), Status::kOk);
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height),
+                                2000);
+  std::atomic<bool> stop_returned{false};
+  std::atomic<std::uint64_t> ok_count{0}, full_count{0}, stopped_count{0}, other_count{0};
+  std::atomic<std::uint64_t> stopped_after_return{0}, ok_after_return{0};
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  std::thread sensor([&] {
+    // Keeps submitting until well after stop() returned (or, with a stop() that waits for the
+    // sensor, until the give-up time: then stop() returns late and the test fails on time).
+    std::uint64_t after = 0;
+    for (Stamp i = 1; after < 100 && std::chrono::steady_clock::now() < give_up; ++i) {
+      Frame f;
+      f.stamp = i * 1'000'000ULL;
+      f.depth = DepthView{px.data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2};
+      const bool returned = stop_returned.load();
+      const Status s = r->submit(f);
+      if (s == Status::kOk) {
+        ++ok_count;
+        if (returned) ++ok_after_return;
+      } else if (s == Status::kCapacityExceeded) {
+        ++full_count;
+      } else if (s == Status::kStopped) {
+        ++stopped_count;
+        if (returned) ++stopped_after_return;
+      } else {
+        ++other_count;
+      }
+      if (returned) ++after;
+    }
+  });
+  while (r->counters().processed < 20) std::this_thread::yield();
+  const auto t0 = std::chrono::steady_clock::now();
+  r->stop();
+  const double stop_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stop_returned = true;
+  sensor.join();
+  EXPECT_LT(stop_s, 1.0) << "stop() waited for the sensor thread";
+  EXPECT_FALSE(r->running());
+  EXPECT_EQ(ok_after_return.load(), 0u);
+  EXPECT_GE(stopped_after_return.load(), 100u);
+  EXPECT_EQ(other_count.load(), 0u);
+  const RunnerCounters c = r->counters();
+  EXPECT_EQ(c.submitted, ok_count.load());
+  EXPECT_EQ(c.rejected_full, full_count.load());
+  EXPECT_EQ(c.rejected_stopped, stopped_count.load());
+  EXPECT_EQ(c.processed + c.failed + c.dropped_at_stop, c.submitted) << "a frame was lost";
+  // Nothing is left behind: a submit after the final stop is refused, not queued.
+  Frame late;
+  late.stamp = 1ULL << 60;
+  late.depth = DepthView{px.data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2};
+  EXPECT_EQ(r->submit(late), Status::kStopped);
+  r->stop();
+  EXPECT_EQ(r->counters().submitted, c.submitted);
+  EXPECT_EQ(r->counters().dropped_at_stop, c.dropped_at_stop);
+  // A restart accepts frames again.
+  ASSERT_EQ(r->start(), Status::kOk);
+  EXPECT_EQ(r->submit(late), Status::kOk);
+  r->stop();
+  const RunnerCounters d = r->counters();
+  EXPECT_EQ(d.processed + d.failed + d.dropped_at_stop, d.submitted);
+}
+
+TEST(Runner, StopWithoutStartDropsAndCountsQueuedFrames) {
+  auto p = std::make_unique<Pipeline>();
+  const PipelineConfig cfg = tiny_config();
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  auto r = std::make_unique<Runner>(*p);
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height),
+                                2000);
+  Frame f;
+  f.depth = DepthView{px.data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2};
+  f.stamp = 1;
+  ASSERT_EQ(r->submit(f), Status::kOk);
+  r->stop();
+  EXPECT_EQ(r->counters().dropped_at_stop, 1u);
+  EXPECT_EQ(r->submit(f), Status::kStopped);
 }
 
 TEST(Runner, ThreeThreadStressLosesNothingButCountedRejections) {

@@ -21,7 +21,9 @@ TEST(Status, EveryValueHasADistinctName) {
                         Status::kPermissionDenied,
                         Status::kUnsupported,
                         Status::kSystemError,
-                        Status::kEmpty};
+                        Status::kEmpty,
+                        Status::kOutOfRange,
+                        Status::kStopped};
   for (Status a : all) {
     EXPECT_STRNE(to_string(a), "unknown");
     for (Status b : all) {

@@ -5,7 +5,10 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -101,6 +104,60 @@ TEST(PngIo, EightBitOrColourPngIsAClearErrorNamingTheFile) {
   write_file(dir / "text.png", "not a png at all");
   expect_error([&] { (void)read_png16(dir / "text.png"); }, {"text.png", "not a PNG"});
   expect_error([&] { (void)read_png16(dir / "missing.png"); }, {"missing.png", "cannot open"});
+}
+
+namespace {
+// CRC-32 of PNG chunks (ISO 3309), for patching a header in the tests.
+std::uint32_t png_crc(const unsigned char* p, std::size_t n) {
+  std::uint32_t c = 0xffffffffu;
+  for (std::size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+  }
+  return c ^ 0xffffffffu;
+}
+
+// A valid 1x1 16-bit grayscale PNG (write_png16, under 100 bytes) whose header is then made to
+// claim w x h.
+std::string png_claiming(const TempDir& dir, std::uint32_t w, std::uint32_t h) {
+  Image16 one;
+  one.width = 1;
+  one.height = 1;
+  one.pixels = {1234};
+  write_png16(dir / "one_pixel.png", one);
+  std::string b = slurp(dir / "one_pixel.png");
+  const auto put32 = [&](std::size_t at, std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) {
+      b[at + static_cast<std::size_t>(i)] = static_cast<char>((v >> (24 - 8 * i)) & 0xffu);
+    }
+  };
+  put32(16, w);  // IHDR data starts after the signature (8), length (4) and type (4)
+  put32(20, h);
+  put32(29, png_crc(reinterpret_cast<const unsigned char*>(b.data()) + 12, 17));
+  return b;
+}
+}  // namespace
+
+// The header's size is not trusted: a tiny file claiming a huge image is refused, naming the
+// file, before anything of that size is allocated (ASan would report the 798 MB, or bad_alloc).
+TEST(PngIo, DecompressionBombIsRefusedBeforeAllocating) {
+  TempDir dir;
+  for (const std::uint32_t side : {20000u, 1000000u}) {
+    const std::string bomb = png_claiming(dir, side, side);
+    ASSERT_LT(bomb.size(), 100u);
+    write_file(dir / "bomb.png", bomb);
+    const std::string claimed = std::to_string(side) + "x" + std::to_string(side);
+    expect_error([&] { (void)read_png16(dir / "bomb.png"); }, {"bomb.png", claimed.c_str()});
+  }
+  // Within the side limit but still far more than the file can hold.
+  write_file(dir / "bomb.png", png_claiming(dir, 4000, 4000));
+  expect_error([&] { (void)read_png16(dir / "bomb.png"); },
+               {"bomb.png", "4000x4000", "-byte file can hold"});
+  // The unpatched image still reads.
+  write_file(dir / "one.png", png_claiming(dir, 1, 1));
+  const Image16 one = read_png16(dir / "one.png");
+  ASSERT_EQ(one.pixels.size(), 1u);
+  EXPECT_EQ(one.pixels[0], 1234);
 }
 
 // ----------------------------------------------------------------------------- sequence ------
@@ -208,6 +265,60 @@ TEST(SequenceReader, MalformedLinesNameFileAndLine) {
   fs::remove(dir / "camera.txt");
   fs::remove(dir / "groundtruth.txt");
   expect_error([&] { (void)read_sequence(dir.str()); }, {"groundtruth.txt", "missing"});
+}
+
+// An image side is range-checked before it is narrowed to int: 4294967936 is not 640.
+TEST(SequenceReader, CameraSizeBeyondIntIsRefusedNotTruncated) {
+  TempDir dir;
+  write_small_sequence(dir);
+  write_file(dir / "camera.txt", "fx 400\nwidth 4294967936\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"camera.txt:2", "width", "4294967936"});
+  write_file(dir / "camera.txt", "fx 400\nheight -480\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"camera.txt:2", "height"});
+}
+
+// Stamps below 0 or beyond the nanosecond clock convert relative to the first one (whole
+// seconds), so strictly increasing stamps stay strictly increasing; in-range stamps convert as
+// they are; a span the clock cannot hold, or stamps closer than 1 ns, are refused by line.
+TEST(SequenceReader, StampsConvertToIncreasingNanosecondsOrAreRefused) {
+  TempDir dir;
+  write_small_sequence(dir);
+  const Sequence plain = read_sequence(dir.str());
+  EXPECT_EQ(plain.stamp_origin, 0.0);
+  EXPECT_EQ(plain.stamp_ns(1.02), 1'020'000'000u);
+
+  const auto shifted = [&](double offset) {
+    char gt[512], depth[512];
+    std::snprintf(gt, sizeof(gt),
+                  "%.6f 0 0 0 0 0 0 1\n%.6f 0.4 0 0 0 0 0.7071068 0.7071068\n%.6f 1 1 1 0 0 0 1\n",
+                  offset + 1.0, offset + 1.04, offset + 1.2);
+    std::snprintf(depth, sizeof(depth), "%.6f depth/b.png\n%.6f depth/c.png\n%.6f depth/e.png\n",
+                  offset + 1.0, offset + 1.02, offset + 1.2);
+    write_file(dir / "groundtruth.txt", gt);
+    write_file(dir / "depth.txt", depth);
+  };
+  for (const double offset : {-10.0, -1e6, 1e10}) {
+    shifted(offset);
+    const Sequence seq = read_sequence(dir.str());
+    ASSERT_EQ(seq.frames.size(), 3u) << offset;
+    std::uint64_t last = 0;
+    for (std::size_t i = 0; i < seq.frames.size(); ++i) {
+      const std::uint64_t ns = seq.stamp_ns(seq.frames[i].stamp);
+      if (i > 0) {
+        EXPECT_GT(ns, last) << offset;
+      }
+      last = ns;
+    }
+    EXPECT_NEAR(
+        static_cast<double>(seq.stamp_ns(seq.frames[2].stamp) - seq.stamp_ns(seq.frames[0].stamp)),
+        0.2e9, 1e4)
+        << offset;
+  }
+  write_file(dir / "depth.txt", "-5e9 depth/a.png\n5e9 depth/b.png\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"depth.txt:2", "nanosecond clock"});
+  write_small_sequence(dir);
+  write_file(dir / "depth.txt", "1.0 depth/b.png\n1.0000000001 depth/c.png\n");
+  expect_error([&] { (void)read_sequence(dir.str()); }, {"depth.txt", "1 ns"});
 }
 
 TEST(SequenceReader, DepthImageOfWrongKindIsAnErrorNamingTheFile) {
@@ -792,4 +903,24 @@ TEST(TopView, WritesAReadablePicture) {
   EXPECT_GT(cairo_image_surface_get_width(img), 400);
   EXPECT_GT(cairo_image_surface_get_height(img), 300);
   cairo_surface_destroy(img);
+}
+
+// Finite but enormous coordinates (a pose 1e12 m away, tracks at 1e300): the grid has a dozen
+// lines whatever the span, so the picture is drawn at once instead of looping near 1e17.
+TEST(TopView, EnormousCoordinatesStillGiveAPictureQuickly) {
+  TempDir dir;
+  for (const double far : {1e12, 1e17, 1e300, 1.7e308}) {
+    TopViewScene s;
+    s.title = "far";
+    s.obstacles.push_back(TopViewObstacle{{far, -far}, {0.5, 0.5}, {1, 0}, true, "1"});
+    s.camera_trajectory = {{0, 0}, {1, 0}};
+    s.static_world.boxes.push_back(StaticBox{{0, 0, 0}, {1, 4, 2}});
+    const auto t0 = std::chrono::steady_clock::now();
+    render_top_view(s, dir / "far.png", 400);
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0)
+        << far;
+    cairo_surface_t* img = cairo_image_surface_create_from_png((dir / "far.png").c_str());
+    EXPECT_EQ(cairo_surface_status(img), CAIRO_STATUS_SUCCESS) << far;
+    cairo_surface_destroy(img);
+  }
 }

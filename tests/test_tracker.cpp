@@ -125,6 +125,37 @@ TEST(TrackerAssociation, TwoMissedFramesKeepTheIdLongerGapsDropIt) {
   EXPECT_GT(tracker->obstacle(0).id, id);
 }
 
+// A walker tracked at 30 Hz, then the next frame comes an hour later without it: its track is
+// not extrapolated across the gap (it would be ~3.6 km further on) and kept, it ends.
+TEST(TrackerAssociation, ATimeGapLongerThanMaxCoastTimeEndsTheTrack) {
+  auto tracker = make_tracker();
+  Stamp stamp = 0;
+  for (int f = 0; f < 30; ++f) {
+    const Detection d = detection(Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f));
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  ASSERT_EQ(tracker->size(), 1u);
+  ASSERT_GT(tracker->obstacle(0).speed, 0.5f);
+  ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += 3600ULL * 1'000'000'000ULL),
+            Status::kOk);
+  EXPECT_EQ(tracker->size(), 0u);
+  EXPECT_EQ(tracker->dropped_tracks(), 1u);
+
+  // Within max_coast_time a short stall (0.5 s, one frame) still coasts as before.
+  auto other = make_tracker();
+  stamp = 0;
+  for (int f = 0; f < 30; ++f) {
+    const Detection d = detection(Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f));
+    ASSERT_EQ(other->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  ASSERT_EQ(other->update(nullptr, 0, camera_at(), stamp += 15 * kFrame), Status::kOk);
+  EXPECT_EQ(other->size(), 1u);
+
+  TrackerConfig bad;
+  bad.max_coast_time = 0.f;
+  EXPECT_EQ(bad.validate(), Status::kInvalidArgument);
+}
+
 TEST(TrackerAssociation, NewTargetGetsNewIdAndIdsAreNeverReused) {
   auto tracker = make_tracker();
   Stamp stamp = 0;

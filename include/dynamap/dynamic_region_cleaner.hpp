@@ -16,6 +16,9 @@
 
 namespace dynamap {
 
+/// Upper bound of DynamicRegionCleanerConfig::max_voxels_per_frame.
+inline constexpr std::size_t kMaxCleanerVoxelsPerFrame = 1'000'000;
+
 /// Cleaning parameters. Original: f = 50 frames, boxes × 1.15 with z ± 0.2 m. The round robin
 /// over older boxes and the voxel budget are ours (bounded work per frame).
 struct DynamicRegionCleanerConfig {
@@ -33,7 +36,8 @@ struct DynamicRegionCleanerConfig {
   Status validate() const noexcept {
     const bool good = frames >= 1 && frames <= kMaxBoxHistory && std::isfinite(inflation) &&
                       inflation >= 1.f && std::isfinite(z_margin) && z_margin >= 0.f &&
-                      std::isfinite(min_z);
+                      std::isfinite(min_z) && max_voxels_per_frame >= 1 &&
+                      max_voxels_per_frame <= kMaxCleanerVoxelsPerFrame;
     return good ? Status::kOk : Status::kInvalidArgument;
   }
 };

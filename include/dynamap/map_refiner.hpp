@@ -25,6 +25,10 @@ struct VoxelLookup {
   bool empty() const noexcept { return contains == nullptr; }
 };
 
+/// Upper bound of MapRefinerConfig::max_voxels_per_box (the pipeline bounds the product with
+/// the detection count further, kMaxRefinerVoxelsPerFrame).
+inline constexpr std::size_t kMaxRefinerVoxelsPerBox = std::size_t{1} << 20;
+
 /// Parameters of the refinement (defaults from the original system).
 struct MapRefinerConfig {
   float inflate = 1.15f;      ///< C_inflate: raw box extents are multiplied by this

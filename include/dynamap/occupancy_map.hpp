@@ -25,6 +25,11 @@ inline constexpr std::size_t kMaxMapBlocks = 4096;
 inline constexpr std::size_t kMaxRaysPerFrame =
     static_cast<std::size_t>(kMaxImageWidth) * static_cast<std::size_t>(kMaxImageHeight) / 4;
 
+/// Upper bound of OccupancyMapConfig::max_voxel_visits_per_frame (DDA steps per frame): room for
+/// the exact walk of every pixel of a 640x480 frame (offline measurements use up to 20 M); the
+/// pipeline bounds it far lower (kMaxPipelineVoxelVisitsPerFrame).
+inline constexpr std::size_t kMaxVoxelVisitsPerFrame = 32'000'000;
+
 /// What the map knows about a voxel: never observed, free, or occupied.
 enum class Occupancy : std::uint8_t { kUnknown = 0, kFree, kOccupied };
 
@@ -41,7 +46,8 @@ struct OccupancyMapConfig {
                                                        ///< updated (rays are clipped to it)
   std::size_t max_blocks = kMaxMapBlocks;              ///< runtime capacity <= kMaxMapBlocks
   std::size_t max_rays_per_frame = kMaxRaysPerFrame;   ///< work cap, <= kMaxRaysPerFrame
-  std::size_t max_voxel_visits_per_frame = 1'000'000;  ///< work cap on DDA steps per frame
+  std::size_t max_voxel_visits_per_frame = 1'000'000;  ///< work cap on DDA steps per frame,
+                                                       ///< <= kMaxVoxelVisitsPerFrame
   /// Cast one representative ray per distinct end voxel per frame (the other pixels ending in
   /// the same voxel would carve nearly the same voxels). false casts every sampled pixel.
   bool merge_rays_per_voxel = true;
@@ -98,7 +104,8 @@ class OccupancyMap {
   [[nodiscard]] Status init(const OccupancyMapConfig& config) noexcept;
 
   /// Integrates one depth frame taken at T_map_camera. On any bad input returns its Status and
-  /// changes nothing. Never fails for lack of space: far blocks are evicted instead.
+  /// changes nothing: kOutOfRange when the camera lies beyond max_abs_translation() (see
+  /// check_pose_range()). Never fails for lack of space: far blocks are evicted instead.
   [[nodiscard]] Status integrate(const DepthView& depth, const CameraIntrinsics& cam,
                                  const Pose& T_map_camera, Stamp stamp) noexcept;
 
@@ -131,6 +138,21 @@ class OccupancyMap {
   /// Sets one voxel's log-odds (clamped). kCapacityExceeded when its block cannot be allocated.
   [[nodiscard]] Status set_log_odds(const Eigen::Vector3f& p, float log_odds) noexcept;
   VoxelKey key_of(const Eigen::Vector3f& p) const noexcept;  ///< clamps to the key range
+  /// Largest |component| (m) of a camera position integrate() accepts: half the key range
+  /// (kKeyHalfRange / 2 voxels, 52 km at 0.1 m), so the local region around the camera and every
+  /// ray in it stay far inside the key range.
+  float max_abs_translation() const noexcept {
+    return 0.5f * static_cast<float>(kKeyHalfRange) * resolution_;
+  }
+  /// kOk for a camera pose integrate() can represent; kNonFinite for NaN/inf; kOutOfRange for a
+  /// finite translation beyond max_abs_translation() on some axis.
+  [[nodiscard]] Status check_pose_range(const Pose& T_map_camera) const noexcept {
+    if (!T_map_camera.translation.allFinite()) return Status::kNonFinite;
+    if ((T_map_camera.translation.array().abs() > max_abs_translation()).any()) {
+      return Status::kOutOfRange;
+    }
+    return Status::kOk;
+  }
   Eigen::Vector3f center_of(VoxelKey key) const noexcept;
   float resolution() const noexcept { return resolution_; }
   float occupied_log_odds() const noexcept { return dequantize(q_occupied_); }  ///< threshold

@@ -89,9 +89,15 @@ class Pipeline {
   /// `error` (when given) names the bad field.
   [[nodiscard]] Status init(const PipelineConfig& config, ConfigError* error = nullptr) noexcept;
 
-  /// Runs the six stages on `frame` and fills `out`. Bad input (null data, wrong size, NaN pose,
-  /// non-unit quaternion, stamp not after the previous frame's) returns its Status, counts a
-  /// rejected frame and leaves the map and the tracks exactly as they were.
+  /// Runs the six stages on `frame` and fills `out`. Bad input returns its Status, counts a
+  /// rejected frame (out.status, out.stamp and out.counters are set; the rest of `out` is not
+  /// touched) and leaves the map and the tracks exactly as they were:
+  ///  - kNullData, kWrongSize, kInvalidArgument: no pixels, wrong size, a stride that is not a
+  ///    whole number of pixels, misaligned data (validate_depth);
+  ///  - kNonFinite, kNonUnitQuaternion: NaN/inf in the pose, a non-unit quaternion;
+  ///  - kOutOfRange: a finite camera position beyond the map's representable range
+  ///    (|component| > OccupancyMap::max_abs_translation(), 52 km at 0.1 m voxels);
+  ///  - kTimeNotIncreasing: stamp not after the previous accepted frame's.
   [[nodiscard]] Status process(const Frame& frame, FrameOutput& out) noexcept;
 
   /// Read-only map for planners' queries between frames (same thread, or after a hand-off).
@@ -120,6 +126,7 @@ class Pipeline {
  private:
   static Clock default_clock() noexcept;
   Status check_frame(const Frame& frame) const noexcept;
+  Status reject(const Frame& frame, Status why, FrameOutput& out) noexcept;
   void adapt_stride(std::uint64_t occupancy_ns) noexcept;
   void fill_output(FrameOutput& out) noexcept;
 
@@ -141,7 +148,6 @@ class Pipeline {
 
   DetectionList detections_{};
   std::array<ObstacleState, kMaxTracks> predictor_input_{};
-  std::array<std::uint32_t, kMaxTracks> predicted_index_{};
 
   std::array<StageStats, kStageCount> stage_stats_{};
   StageStats frame_stats_{};

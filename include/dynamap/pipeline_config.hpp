@@ -11,6 +11,7 @@
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"
+#include "dynamap/prediction.hpp"
 #include "dynamap/status.hpp"
 #include "dynamap/tracker.hpp"
 #include "dynamap/types.hpp"
@@ -59,6 +60,47 @@ struct PipelineConfig {
   float ground_height = 0.0f;  ///< map-frame z of the floor (m)
   BudgetConfig budgets{};
 };
+
+/// Documented upper bounds on the per-frame work a configuration may ask for (docs/realtime.md,
+/// "Bounded work"). validate() derives each figure of WorstCaseWork from the configuration and
+/// refuses one over its bound, naming the field to change. The defaults use a fraction of each.
+/// Map DDA steps per frame (map.max_voxel_visits_per_frame; default 1'000'000). Tighter than
+/// the map's own kMaxVoxelVisitsPerFrame, which also admits offline exact-walk measurements.
+inline constexpr std::size_t kMaxPipelineVoxelVisitsPerFrame = 2'000'000;
+/// Half extent of the map's local region per axis, in voxels (map.local_half_extent /
+/// map.resolution): bounds one ray's walk to about 3 x this many voxels (default 50 / 50 / 30).
+inline constexpr float kMaxLocalHalfExtentVoxels = 1000.f;
+/// Map voxel size range (m).
+inline constexpr float kMinMapResolution = 0.01f;
+inline constexpr float kMaxMapResolution = 10.f;
+/// Voxels the refiner examines per frame: max_detections x 2 passes x refiner.max_voxels_per_box
+/// (default 32 x 2 x 16384 = 1'048'576).
+inline constexpr std::size_t kMaxRefinerVoxelsPerFrame = 2'097'152;
+/// Voxels the dynamic-region cleaner examines per frame: kMaxCleanerVoxelsPerFrame
+/// (dynamic_region_cleaner.hpp).
+/// Voxel steps of the predictors' footprint sweeps per frame, worst case over kMaxTracks dynamic
+/// tracks (WorstCaseWork::predictor_voxel_steps; default about 0.5 M).
+inline constexpr std::size_t kMaxPredictorVoxelStepsPerFrame = 4'000'000;
+
+/// The most work one Pipeline::process call can do under a configuration, stage by stage, as
+/// validate() derives it (each figure is also capped at run time by the named field).
+struct WorstCaseWork {
+  std::size_t rays = 0;                   ///< min(sampled pixels, map.max_rays_per_frame)
+  std::size_t voxel_visits = 0;           ///< min(rays x longest ray, map visit cap)
+  std::size_t detections = 0;             ///< detector.max_detections
+  std::size_t refiner_voxels = 0;         ///< detections x 2 x refiner.max_voxels_per_box
+  std::size_t tracks = 0;                 ///< kMaxTracks
+  std::size_t cleaner_voxels = 0;         ///< cleaner.max_voxels_per_frame
+  std::size_t path_samples = 0;           ///< tracks x paths x kMaxPathSamples
+  std::size_t predictor_voxel_steps = 0;  ///< see worst_case_work()
+};
+
+/// Worst-case work of `config` (meaningful for a configuration whose individual fields are
+/// valid). predictor_voxel_steps = (markov + linear baseline) sweeps over tracks x paths x
+/// clearance lines x height levels x (3 x horizon / map.resolution + 3 x (kMaxPathSamples - 1)),
+/// doubled when predictor.unknown_weight < 1 (a second sweep); horizon = the longer of
+/// predictor.paths.horizon_distance and slow_speed x slow_horizon_time.
+WorstCaseWork worst_case_work(const PipelineConfig& config) noexcept;
 
 /// Result of PipelineConfig validation: the status, the first offending field and why.
 struct ConfigError {

@@ -28,13 +28,18 @@ struct RunnerConfig {
 };
 
 /// Cumulative counters, readable from any thread.
+/// Every submit() call ends in exactly one of submitted, rejected_full, rejected_bad and
+/// rejected_stopped; every submitted frame in exactly one of processed, failed and
+/// dropped_at_stop (once the worker has stopped).
 struct RunnerCounters {
-  std::uint64_t submitted = 0;      ///< frames accepted into the ring
-  std::uint64_t rejected_full = 0;  ///< frames rejected because the ring was full
-  std::uint64_t rejected_bad = 0;   ///< frames rejected by submit() (null, too large)
-  std::uint64_t processed = 0;      ///< frames the pipeline accepted
-  std::uint64_t failed = 0;         ///< frames the pipeline rejected (bad pose, stamp ...)
-  std::uint64_t published = 0;      ///< output snapshots published
+  std::uint64_t submitted = 0;         ///< frames accepted into the ring
+  std::uint64_t rejected_full = 0;     ///< frames rejected because the ring was full
+  std::uint64_t rejected_bad = 0;      ///< frames rejected by submit() (null, too large)
+  std::uint64_t rejected_stopped = 0;  ///< frames rejected because stop() was requested
+  std::uint64_t processed = 0;         ///< frames the pipeline accepted
+  std::uint64_t failed = 0;            ///< frames the pipeline rejected (bad pose, stamp ...)
+  std::uint64_t dropped_at_stop = 0;   ///< frames still queued when the worker stopped
+  std::uint64_t published = 0;         ///< output snapshots published
 };
 
 /// One input slot: a copy of a frame with its image (namespace scope: a nested class with
@@ -56,16 +61,22 @@ class Runner {
   Runner& operator=(const Runner&) = delete;
   ~Runner() { stop(); }
 
-  /// Starts the worker. kNotInitialized if the pipeline is not; a platform Status (e.g.
-  /// kPermissionDenied for SCHED_FIFO without privilege) if the thread cannot be created.
+  /// Starts the worker (also after a stop(): submit() accepts frames again). kNotInitialized if
+  /// the pipeline is not; a platform Status (e.g. kPermissionDenied for SCHED_FIFO without
+  /// privilege) if the thread cannot be created.
   [[nodiscard]] Status start(const RunnerConfig& config = RunnerConfig{}) noexcept;
-  /// Asks the worker to finish the frames already queued, then joins it. Idempotent.
+  /// Stops: from the request on, submit() refuses (kStopped, counted); the worker finishes the
+  /// frame it is processing, if any, and starts no other; frames still queued are counted as
+  /// dropped_at_stop; then the worker is joined. Returns within one frame's processing time
+  /// whatever the sensor thread does. Frames queued before start() are dropped the same way by
+  /// a stop() without a start(). Idempotent. Call it from one thread (the owner's).
   void stop() noexcept;
   bool running() const noexcept { return worker_.joinable(); }
 
   /// Sensor side (one thread): copies the frame into a free slot. Never blocks.
-  /// kCapacityExceeded when the ring is full (counted), kNullData / kWrongSize for a frame
-  /// that cannot be copied. Pose and stamp are checked later by the pipeline.
+  /// kCapacityExceeded when the ring is full (counted), kNullData / kWrongSize /
+  /// kInvalidArgument for a frame that cannot be copied (validate_depth_layout), kStopped once
+  /// stop() has been requested (counted). Pose and stamp are checked later by the pipeline.
   [[nodiscard]] Status submit(const Frame& frame) noexcept;
 
   /// Planner side (one thread): true when a newer snapshot than the last one taken is there;
@@ -80,15 +91,23 @@ class Runner {
 
   static void worker_entry(void* self) noexcept;
   void worker_loop() noexcept;
+  Status push(const Frame& frame) noexcept;
+  /// Consumer side, after the stop request: waits out a submit() that began before it, then
+  /// empties the ring, counting each frame as dropped_at_stop.
+  void drop_queued() noexcept;
 
   Pipeline& pipeline_;
   RunnerConfig config_{};
   platform::WorkerThread worker_{};
   std::atomic<bool> stop_requested_{false};
+  /// submit() calls in progress past their stop check (0 or 1: one sensor thread).
+  std::atomic<std::uint32_t> submitting_{0};
   SpscRing<FrameSlot, kRunnerInputSlots> inputs_{};
   LatestValue<FrameOutput> outputs_{};
   std::atomic<std::uint64_t> submitted_{0};
   std::atomic<std::uint64_t> rejected_bad_{0};
+  std::atomic<std::uint64_t> rejected_stopped_{0};
+  std::atomic<std::uint64_t> dropped_at_stop_{0};
   std::atomic<std::uint64_t> processed_{0};
   std::atomic<std::uint64_t> failed_{0};
 };

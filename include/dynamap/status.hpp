@@ -20,6 +20,9 @@ enum class [[nodiscard]] Status : std::uint8_t{
     kUnsupported,        // not available on this platform
     kSystemError,        // any other OS failure
     kEmpty,              // nothing to take (e.g. an empty ring)
+    kOutOfRange,         // finite, but outside what can be represented (e.g. a pose beyond the
+                         // occupancy map's key range)
+    kStopped,            // the receiver is stopping or stopped (e.g. Runner::submit after stop)
 };
 
 /// Short, stable, human-readable name of a status ("ok", "wrong_size", ...).
@@ -51,6 +54,10 @@ constexpr const char* to_string(Status s) noexcept {
       return "system_error";
     case Status::kEmpty:
       return "empty";
+    case Status::kOutOfRange:
+      return "out_of_range";
+    case Status::kStopped:
+      return "stopped";
   }
   return "unknown";
 }

@@ -54,9 +54,14 @@ class HistoryRing {
 struct TrackerConfig {
   KalmanConfig kalman{};
   ContinuityConfig continuity{};
-  float overlap_threshold = 0.3f;       ///< top-view A_overlap / A_detection for a candidate pair
-  float centre_gate = 0.22f;            ///< or a top-view centre distance below this (m)
-  std::size_t max_missed_frames = 3;    ///< frames a track coasts on its prediction, then dropped
+  float overlap_threshold = 0.3f;     ///< top-view A_overlap / A_detection for a candidate pair
+  float centre_gate = 0.22f;          ///< or a top-view centre distance below this (m)
+  std::size_t max_missed_frames = 3;  ///< frames a track coasts on its prediction, then dropped
+  /// Seconds a track may go unmeasured, whatever the frame count: at the next frame later than
+  /// this after its last measurement it is dropped before it is predicted, so a time gap in
+  /// the input (a stalled sensor) ends coasting instead of extrapolating across it. At 30 Hz,
+  /// max_missed_frames ends coasting long before this.
+  float max_coast_time = 1.0f;
   std::size_t history_length = 20;      ///< k: the state history holds k + 1 positions
   std::size_t box_history_length = 50;  ///< f: past boxes kept for dynamic-region cleaning
   std::size_t size_fix_frames = 10;     ///< k': frames fully in view before the size is frozen

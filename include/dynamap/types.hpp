@@ -86,15 +86,27 @@ inline Status validate_pose(const Pose& pose) noexcept {
   return Status::kOk;
 }
 
-/// Checks a depth view against the camera model: non-null, matching size, sane stride.
-inline Status validate_depth(const DepthView& depth, const CameraIntrinsics& cam) noexcept {
+/// Checks a depth view's own layout: non-null data aligned for uint16_t (kNullData /
+/// kInvalidArgument), positive size, and a row stride of at least one row that is a whole number
+/// of pixels (kWrongSize), so every row starts aligned and every pixel read is an aligned load.
+inline Status validate_depth_layout(const DepthView& depth) noexcept {
   if (depth.data == nullptr) return Status::kNullData;
-  if (depth.width != cam.width || depth.height != cam.height) return Status::kWrongSize;
+  if (reinterpret_cast<std::uintptr_t>(depth.data) % alignof(std::uint16_t) != 0) {
+    return Status::kInvalidArgument;
+  }
   if (depth.width <= 0 || depth.height <= 0) return Status::kWrongSize;
-  if (depth.stride_bytes < depth.width * static_cast<int>(sizeof(std::uint16_t))) {
+  if (depth.stride_bytes < depth.width * static_cast<int>(sizeof(std::uint16_t)) ||
+      depth.stride_bytes % static_cast<int>(sizeof(std::uint16_t)) != 0) {
     return Status::kWrongSize;
   }
   return Status::kOk;
+}
+
+/// Checks a depth view against the camera model: validate_depth_layout(), and the camera's size.
+inline Status validate_depth(const DepthView& depth, const CameraIntrinsics& cam) noexcept {
+  if (depth.data == nullptr) return Status::kNullData;
+  if (depth.width != cam.width || depth.height != cam.height) return Status::kWrongSize;
+  return validate_depth_layout(depth);
 }
 
 }  // namespace dynamap

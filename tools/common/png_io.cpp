@@ -3,8 +3,11 @@
 #include <png.h>
 #include <cerrno>
 #include <csetjmp>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <system_error>
 
 #include "common/text_io.hpp"
 
@@ -24,6 +27,19 @@ void on_png_error(png_structp png, png_const_charp msg) {
 }
 
 void on_png_warning(png_structp, png_const_charp) {}
+
+/// Largest depth image read_png16 accepts: far beyond any depth camera (the pipeline takes at
+/// most 640x480), small enough that decoding one is harmless (128 MB).
+constexpr png_uint_32 kMaxPngSide = 8192;
+/// zlib cannot expand data more than 1032:1, so a file this many times smaller than its
+/// decoded rows (plus slack for the header) is lying about its size.
+constexpr double kMaxDeflateRatio = 1032.0;
+
+std::uintmax_t file_size_bytes(const std::string& path) {
+  std::error_code ec;
+  const std::uintmax_t n = std::filesystem::file_size(path, ec);
+  return ec ? 0 : n;
+}
 
 struct PngHeader {
   png_uint_32 width = 0, height = 0;
@@ -120,6 +136,24 @@ Image16 read_png16(const std::string& path) {
     png_destroy_read_struct(&png, &info, nullptr);
     throw ToolError(path + ": expected a 16-bit single-channel (grayscale) depth PNG, found " +
                     describe(h.bit_depth, h.color_type));
+  }
+  // The header's size is not trusted: it must be a plausible depth image, and the file must be
+  // large enough to hold that many rows at zlib's best ratio (a 69-byte file claiming
+  // 20000x20000 is refused here, before any allocation).
+  const std::string claimed = std::to_string(h.width) + "x" + std::to_string(h.height);
+  if (h.width > kMaxPngSide || h.height > kMaxPngSide) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw ToolError(path + ": PNG header claims " + claimed + " pixels, more than the " +
+                    std::to_string(kMaxPngSide) + "x" + std::to_string(kMaxPngSide) +
+                    " a depth image may have");
+  }
+  const double decoded_bytes =
+      static_cast<double>(h.height) * (1.0 + 2.0 * static_cast<double>(h.width));
+  const double file_bytes = static_cast<double>(file_size_bytes(path));
+  if (decoded_bytes > kMaxDeflateRatio * file_bytes + 1024.0) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw ToolError(path + ": corrupt PNG: header claims " + claimed + " pixels, more than a " +
+                    std::to_string(static_cast<long long>(file_bytes)) + "-byte file can hold");
   }
   Image16 img;
   img.width = static_cast<int>(h.width);

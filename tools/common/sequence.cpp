@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -12,6 +13,22 @@
 #include "common/text_io.hpp"
 
 namespace dynamap::tools {
+namespace {
+
+/// Largest image side camera.txt may give.
+constexpr long long kMaxCameraSide = 8192;
+
+/// An image side, range-checked before it is narrowed to int (4294967936 is not 640).
+int image_side(const std::string& field, const TextLocation& at, const char* name) {
+  const long long v = parse_int(field, at, name);
+  if (v < 1 || v > kMaxCameraSide) {
+    fail_at(at, std::string(name) + " must be in 1.." + std::to_string(kMaxCameraSide) + ", got " +
+                    field);
+  }
+  return static_cast<int>(v);
+}
+
+}  // namespace
 
 CameraModel read_camera_file(const std::string& path, bool* present,
                              std::vector<std::string>* warnings) {
@@ -35,9 +52,9 @@ CameraModel read_camera_file(const std::string& path, bool* present,
     } else if (key == "cy") {
       cam.cy = parse_double(f[1], at, "cy");
     } else if (key == "width") {
-      cam.width = static_cast<int>(parse_int(f[1], at, "width"));
+      cam.width = image_side(f[1], at, "width");
     } else if (key == "height") {
-      cam.height = static_cast<int>(parse_int(f[1], at, "height"));
+      cam.height = image_side(f[1], at, "height");
     } else if (key == "depth_factor") {
       cam.depth_factor = parse_double(f[1], at, "depth_factor");
     } else if (key == "world_z_up") {
@@ -346,7 +363,9 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
   }
 
   const auto lines = read_lines(depth_list);
-  double previous = -1e300;
+  double previous = -std::numeric_limits<double>::infinity();
+  double first_stamp = 0.0, last_stamp = 0.0;
+  std::size_t first_line = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const TextLocation at{depth_list, i + 1};
     const std::string body = strip_comment(lines[i]);
@@ -355,8 +374,18 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
     if (f.size() < 2) fail_at(at, "expected 'timestamp filename', got '" + lines[i] + "'");
     SequenceFrame frame;
     frame.stamp = parse_double(f[0], at, "timestamp");
+    if (!std::isfinite(frame.stamp)) fail_at(at, "time stamp must be finite");
     if (frame.stamp <= previous) fail_at(at, "time stamps must increase");
+    if (first_line == 0) {
+      first_line = i + 1;
+      first_stamp = frame.stamp;
+    }
+    if (frame.stamp - first_stamp > kMaxStampSeconds) {
+      fail_at(at, "time stamps span more than 9.2e9 s from the first one (line " +
+                      std::to_string(first_line) + "): beyond the replay's nanosecond clock");
+    }
     previous = frame.stamp;
+    last_stamp = frame.stamp;
     frame.stamp_text = f[0];
     frame.depth_path = join_path(dir, f[1]);
     ++seq.images_listed;
@@ -366,8 +395,29 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
     }
     seq.frames.push_back(std::move(frame));
   }
+  // Stamps in [0, kMaxStampSeconds] convert as they are; others relative to the first one.
+  if (first_line != 0 && (first_stamp < 0.0 || last_stamp > kMaxStampSeconds)) {
+    seq.stamp_origin = std::floor(first_stamp);
+  }
+  // Distinct stamps must stay distinct (and in order) in whole nanoseconds.
+  for (std::size_t k = 1; k < seq.frames.size(); ++k) {
+    if (seq.stamp_ns(seq.frames[k].stamp) <= seq.stamp_ns(seq.frames[k - 1].stamp)) {
+      throw ToolError(depth_list + ": time stamps " + seq.frames[k - 1].stamp_text + " and " +
+                      seq.frames[k].stamp_text + " are less than 1 ns apart");
+    }
+  }
   if (seq.gravity_aligned && options.level_floor) level_on_floor(seq);
   return seq;
+}
+
+std::uint64_t Sequence::stamp_ns(double seconds) const {
+  const double ns = std::round((seconds - stamp_origin) * 1e9);
+  // read_sequence() keeps every stamp of the sequence in [0, kMaxStampSeconds] of the origin.
+  if (!(ns >= 0.0 && ns <= (kMaxStampSeconds + 1.0) * 1e9)) {
+    throw ToolError(dir + ": time stamp " + std::to_string(seconds) +
+                    " s is outside the replay's nanosecond clock");
+  }
+  return static_cast<std::uint64_t>(ns);
 }
 
 Image16 load_depth(const Sequence& seq, const SequenceFrame& frame) {

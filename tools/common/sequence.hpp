@@ -91,7 +91,18 @@ struct Sequence {
   bool floor_levelled = false;
   std::size_t floor_points = 0;
   std::vector<std::string> warnings;  ///< e.g. unknown camera.txt keys (ignored)
+  /// Seconds subtracted from depth.txt stamps before they become the pipeline's nanoseconds
+  /// (stamp_ns): 0 when every stamp lies in [0, kMaxStampSeconds] (the stamps convert as they
+  /// are), else the first stamp rounded down to a whole second. read_sequence() refuses a
+  /// sequence whose stamps span more than kMaxStampSeconds or come closer than 1 ns.
+  double stamp_origin = 0.0;
+  /// A depth.txt stamp as the pipeline's nanosecond stamp (only differences matter to it).
+  std::uint64_t stamp_ns(double seconds) const;
 };
+
+/// Longest span of depth.txt stamps the replay's unsigned nanosecond clock holds with margin
+/// (2^63 ns is 9.22e9 s).
+inline constexpr double kMaxStampSeconds = 9.2e9;
 
 /// Reads camera.txt; a missing file gives the defaults. Throws ToolError naming file:line.
 CameraModel read_camera_file(const std::string& path, bool* present,

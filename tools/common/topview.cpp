@@ -47,11 +47,26 @@ void grow(Eigen::Vector2d* lo, Eigen::Vector2d* hi, const Eigen::Vector2d& p) {
   *hi = hi->cwiseMax(p);
 }
 
+/// Grid spacing for a span: 0.5 m, then 1, 2, 5 x 10^k m, the first with at most 12 lines, for
+/// any finite span (a scene 1e12 m across gets a 1e11 m grid, not 1e10 lines of 100 m).
 double nice_step(double span_m) {
-  for (double s : {0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0}) {
-    if (span_m / s <= 12.0) return s;
+  if (span_m / 0.5 <= 12.0) return 0.5;
+  double decade = 1.0;
+  while (span_m / (10.0 * decade) > 12.0 && decade < 1e300) decade *= 10.0;
+  for (double m : {1.0, 2.0, 5.0}) {
+    if (span_m / (m * decade) <= 12.0) return m * decade;
   }
-  return 100.0;
+  return 10.0 * decade;
+}
+
+/// Grid lines (multiples of step) in [lo, hi + tolerance]: an integer count, so the loop ends
+/// even where x + step == x in floating point.
+template <class F>
+void for_each_grid_line(double lo, double hi, double step, double tolerance, F&& f) {
+  const double first = std::ceil(lo / step);
+  const double last = std::floor((hi + tolerance) / step);
+  if (!(first <= last) || last - first > 1000.0) return;  // NaN, or not a nice_step grid
+  for (double k = first; k <= last; k += 1.0) f(k * step);
 }
 
 void text(cairo_t* cr, double x, double y, const std::string& s, double size, bool bold = false,
@@ -172,6 +187,10 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
     lo -= Eigen::Vector2d::Constant(0.8);
     hi += Eigen::Vector2d::Constant(0.8);
   }
+  // Finite spans only (coordinates near the double range would make it inf, the scale 0).
+  constexpr double kMaxCoordinate = 1e300;
+  lo = lo.cwiseMax(Eigen::Vector2d::Constant(-kMaxCoordinate));
+  hi = hi.cwiseMin(Eigen::Vector2d::Constant(kMaxCoordinate));
   const Eigen::Vector2d span = (hi - lo).cwiseMax(Eigen::Vector2d::Constant(1.0));
   hi = lo + span;
 
@@ -210,14 +229,14 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
   const double step = nice_step(std::max(span.x(), span.y()));
   set(cr, kGrid);
   cairo_set_line_width(cr, 1.0);
-  for (double x = std::ceil(lo.x() / step) * step; x <= hi.x(); x += step) {
+  for_each_grid_line(lo.x(), hi.x(), step, 0.0, [&](double x) {
     cairo_move_to(cr, f.px(x), f.top);
     cairo_line_to(cr, f.px(x), f.top + plot_h);
-  }
-  for (double y = std::ceil(lo.y() / step) * step; y <= hi.y(); y += step) {
+  });
+  for_each_grid_line(lo.y(), hi.y(), step, 0.0, [&](double y) {
     cairo_move_to(cr, f.left, f.py(y));
     cairo_line_to(cr, f.left + plot_w, f.py(y));
-  }
+  });
   cairo_stroke(cr);
 
   // --- static world (truth), then map cells ---------------------------------------------------
@@ -360,14 +379,14 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
   cairo_stroke(cr);
   set(cr, kText);
   char buf[64];
-  for (double x = std::ceil(lo.x() / step) * step; x <= hi.x() + 1e-9; x += step) {
+  for_each_grid_line(lo.x(), hi.x(), step, 1e-9, [&](double x) {
     std::snprintf(buf, sizeof(buf), "%g", std::abs(x) < 1e-9 ? 0.0 : x);
     text(cr, f.px(x), f.top + plot_h + 16, buf, 11, false, 0.5);
-  }
-  for (double y = std::ceil(lo.y() / step) * step; y <= hi.y() + 1e-9; y += step) {
+  });
+  for_each_grid_line(lo.y(), hi.y(), step, 1e-9, [&](double y) {
     std::snprintf(buf, sizeof(buf), "%g", std::abs(y) < 1e-9 ? 0.0 : y);
     text(cr, f.left - 6, f.py(y) + 4, buf, 11, false, 1.0);
-  }
+  });
   text(cr, f.left + 0.5 * plot_w, f.top + plot_h + 34, "x (m)", 13, false, 0.5);
   cairo_save(cr);
   cairo_translate(cr, 22, f.top + 0.5 * plot_h);

@@ -338,7 +338,7 @@ int run(const Options& o) {
     }
     decode_ms.push_back(1e3 * (wall_seconds() - t0));
     Frame frame;
-    frame.stamp = static_cast<Stamp>(std::llround(sf.stamp * 1e9));
+    frame.stamp = seq.stamp_ns(sf.stamp);
     frame.T_map_camera = to_pose(sf.pose);
     frame.depth = DepthView{depth.pixels.data(), depth.width, depth.height,
                             depth.width * static_cast<int>(sizeof(std::uint16_t))};

@@ -1,8 +1,12 @@
 #include "params.hpp"
 
 #include <cstdint>
+#include <exception>
+#include <filesystem>
 #include <functional>
+#include <map>
 #include <sstream>
+#include <system_error>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -126,6 +130,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(map.max_blocks),
       DYNAMAP_PARAM(map.max_rays_per_frame),
       DYNAMAP_PARAM(map.max_voxel_visits_per_frame),
+      DYNAMAP_PARAM(map.merge_rays_per_voxel),
       DYNAMAP_PARAM(map.free_ray_early_stop),
       DYNAMAP_PARAM(detector.bins),
       DYNAMAP_PARAM(detector.d_min),
@@ -182,6 +187,7 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(tracker.overlap_threshold),
       DYNAMAP_PARAM(tracker.centre_gate),
       DYNAMAP_PARAM(tracker.max_missed_frames),
+      DYNAMAP_PARAM(tracker.max_coast_time),
       DYNAMAP_PARAM(tracker.history_length),
       DYNAMAP_PARAM(tracker.box_history_length),
       DYNAMAP_PARAM(tracker.size_fix_frames),
@@ -240,14 +246,21 @@ std::string where(const std::string& path, const YAML::Node& n) {
   return os.str();
 }
 
-// Walks nested maps, joining keys with dots, and sets each scalar leaf.
+// Walks nested maps, joining keys with dots, and sets each scalar leaf. `seen` holds every
+// dotted key (maps and leaves) met so far with its place: a key given twice is refused (YAML
+// leaves duplicates undefined; yaml-cpp would keep either silently).
 std::string apply_node(const std::string& path, const YAML::Node& node, const std::string& prefix,
-                       PipelineConfig& config) {
+                       PipelineConfig& config, std::map<std::string, std::string>& seen) {
   for (const auto& kv : node) {
     const std::string key = prefix + kv.first.as<std::string>();
     const YAML::Node& value = kv.second;
+    const auto [first, inserted] = seen.emplace(key, where(path, kv.first));
+    if (!inserted) {
+      return where(path, kv.first) + ": duplicate key '" + key + "' (first given at " +
+             first->second + ")";
+    }
     if (value.IsMap()) {
-      std::string e = apply_node(path, value, key + ".", config);
+      std::string e = apply_node(path, value, key + ".", config, seen);
       if (!e.empty()) return e;
       continue;
     }
@@ -272,6 +285,12 @@ std::string apply_node(const std::string& path, const YAML::Node& node, const st
 }  // namespace
 
 std::string apply_params_file(const std::string& path, PipelineConfig& config) {
+  // A directory opens as a stream on Linux and fails only on reading, with the stream's own
+  // message: refuse anything but a regular file first.
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    return path + ": not a parameter file (a directory or a special file)";
+  }
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
@@ -279,11 +298,19 @@ std::string apply_params_file(const std::string& path, PipelineConfig& config) {
     return path + ": cannot open the parameter file";
   } catch (const YAML::Exception& e) {
     return path + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg;
+  } catch (const std::exception& e) {
+    return path + ": cannot read the parameter file: " + e.what();
   }
   if (root.IsNull()) return "";  // an empty file changes nothing
   if (!root.IsMap()) return path + ": the parameter file must be a map of keys to values";
   PipelineConfig candidate = config;  // nothing changes unless the whole file is good
-  std::string e = apply_node(path, root, "", candidate);
+  std::map<std::string, std::string> seen;
+  std::string e;
+  try {
+    e = apply_node(path, root, "", candidate, seen);
+  } catch (const YAML::Exception& ex) {  // e.g. a key that is a list, not a scalar
+    return path + ":" + std::to_string(ex.mark.line + 1) + ": not a parameter: " + ex.msg;
+  }
   if (!e.empty()) return e;
   const ConfigError ce = validate(candidate);
   if (!ce.ok()) return path + ": invalid value for '" + ce.field + "': " + ce.reason;
