@@ -95,6 +95,17 @@ Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
   stats_ = UMapDetectorStats{};
   out.clear();
 
+  set_point_thresholds(cam);
+  extract_segments(depth.width);
+  build_groups();
+  boxes_from_groups(depth, cam, T_map_camera, out);
+  stats_.detections = out.size();
+  return Status::kOk;
+}
+
+void UMapDetector::set_point_thresholds(const CameraIntrinsics& cam) noexcept {
+  // A U-map cell is a point when its count reaches count_threshold and the column height that
+  // min_point_height has at the bin's depth (fewer pixels the farther away).
   for (int b = 0; b < binning_.bins; ++b) {
     const float z = 0.5f * (binning_.bin_near_depth(b) + binning_.bin_far_depth(b));
     const float metric = z > 0.f ? std::ceil(config_.min_point_height * cam.fy / z) : 65535.f;
@@ -102,9 +113,10 @@ Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
         std::min(65535.f, std::max(static_cast<float>(config_.count_threshold), metric));
     thresholds_[static_cast<std::size_t>(b)] = static_cast<std::uint16_t>(t);
   }
-  extract_segments(depth.width);
-  build_groups();
+}
 
+void UMapDetector::boxes_from_groups(const DepthView& depth, const CameraIntrinsics& cam,
+                                     const Pose& T_map_camera, DetectionList& out) noexcept {
   std::size_t searched = 0;
   for (std::size_t gi = 0; gi < group_count_; ++gi) {
     const Group& g = groups_[gi];
@@ -153,8 +165,6 @@ Status UMapDetector::detect(const DepthView& depth, const CameraIntrinsics& cam,
     d->near_depth = near_depth;
     d->refined = false;
   }
-  stats_.detections = out.size();
-  return Status::kOk;
 }
 
 void UMapDetector::extract_segments(int width) noexcept {
@@ -260,23 +270,30 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
                                  const CameraIntrinsics& cam, const Pose& T_map_camera,
                                  Box3* box_cam, Box3* box_map, ImageBox* ibox,
                                  float* near_depth) noexcept {
-  const int u0 = std::max(0, g.u0);
-  const int u1 = std::min(depth.width - 1, g.u1);
-  if (u1 < u0) return false;
+  PixelBand band;
+  band.u0 = std::max(0, g.u0);
+  band.u1 = std::min(depth.width - 1, g.u1);
+  if (band.u1 < band.u0) return false;
   // Depth band [near, near + band_factor * extent] in raw units (integer compares per pixel).
-  const std::uint32_t raw_lo = binning_.bin_first_raw(g.b0);
-  const std::uint32_t ext = binning_.bin_first_raw(g.b1 + 1) - raw_lo;
-  const std::uint32_t band = std::max<std::uint32_t>(
+  band.raw_lo = binning_.bin_first_raw(g.b0);
+  const std::uint32_t ext = binning_.bin_first_raw(g.b1 + 1) - band.raw_lo;
+  const std::uint32_t width = std::max<std::uint32_t>(
       1u, static_cast<std::uint32_t>(config_.band_factor * static_cast<float>(ext)));
-  const std::uint32_t raw_hi = std::min<std::uint32_t>(65535u, raw_lo + band - 1u);
+  band.raw_hi = std::min<std::uint32_t>(65535u, band.raw_lo + width - 1u);
+  if (!find_row_run(depth, &band)) return false;
+  sum_band_depths(depth, band);
+  return fit_boxes(band, cam, T_map_camera, box_cam, box_map, ibox, near_depth);
+}
 
-  // Pass 1: in-band pixels per image row over the group's columns (all reads inside the image).
+bool UMapDetector::find_row_run(const DepthView& depth, PixelBand* band) noexcept {
+  const int u0 = band->u0, u1 = band->u1;
+  // In-band pixels per image row over the group's columns (all reads inside the image).
   for (int v = 0; v < depth.height; ++v) {
     const std::uint16_t* row = depth.row(v);
     int n = 0;
     for (int u = u0; u <= u1; ++u) {
       const std::uint32_t d = row[u];
-      n += (d >= raw_lo && d <= raw_hi) ? 1 : 0;
+      n += (d >= band->raw_lo && d <= band->raw_hi) ? 1 : 0;
     }
     row_hits_[static_cast<std::size_t>(v)] = static_cast<std::uint16_t>(n);
   }
@@ -294,22 +311,26 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
     }
   }
   if (best_start < 0 || best_end - best_start + 1 < config_.min_run_rows) return false;
+  band->v0 = best_start;
+  band->v1 = best_end;
+  return true;
+}
 
-  // Pass 2: mean in-band depth per column and per row. Each column (row) of the box is placed
-  // at its own mean depth: exact for front and side faces, and depth noise averages out instead
-  // of stretching the box by the extreme pixels.
-  for (int u = u0; u <= u1; ++u) {
+void UMapDetector::sum_band_depths(const DepthView& depth, const PixelBand& band) noexcept {
+  // In-band depth sums per column and per row (and their image-coordinate moments), for the
+  // mean depths of fit_boxes().
+  for (int u = band.u0; u <= band.u1; ++u) {
     col_depth_sum_[static_cast<std::size_t>(u)] = 0;
     col_vdepth_sum_[static_cast<std::size_t>(u)] = 0;
     col_count_[static_cast<std::size_t>(u)] = 0;
   }
-  for (int v = best_start; v <= best_end; ++v) {
+  for (int v = band.v0; v <= band.v1; ++v) {
     const std::uint16_t* row = depth.row(v);
     std::uint32_t row_sum = 0;
     std::uint64_t row_usum = 0;
-    for (int u = u0; u <= u1; ++u) {
+    for (int u = band.u0; u <= band.u1; ++u) {
       const std::uint32_t d = row[u];
-      const bool in = d >= raw_lo && d <= raw_hi;
+      const bool in = d >= band.raw_lo && d <= band.raw_hi;
       const std::uint32_t dd = in ? d : 0u;
       const auto ui = static_cast<std::size_t>(u);
       col_depth_sum_[ui] += dd;
@@ -321,8 +342,15 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
     row_depth_sum_[static_cast<std::size_t>(v)] = row_sum;
     row_udepth_sum_[static_cast<std::size_t>(v)] = row_usum;
   }
-  // Tight box over pixel footprints ([u - 0.5, u + 0.5]); x, y scaled by fx, fy at the end.
-  // Map-frame box: each column contributes the mean map-frame point of its in-band pixels
+}
+
+bool UMapDetector::fit_boxes(const PixelBand& band, const CameraIntrinsics& cam,
+                             const Pose& T_map_camera, Box3* box_cam, Box3* box_map, ImageBox* ibox,
+                             float* near_depth) const noexcept {
+  // Each column (row) of the box is placed at its own mean in-band depth: exact for front and
+  // side faces, and depth noise averages out instead of stretching the box by the extreme
+  // pixels. Tight box over pixel footprints ([u - 0.5, u + 0.5]); x, y scaled by fx, fy at the
+  // end. Map-frame box: each column contributes the mean map-frame point of its in-band pixels
   // (widened by half a pixel on each side) to the horizontal bounds, each row its mean point's
   // height (+- half a pixel) to the vertical bounds. Averaging real surface points keeps an
   // upright surface at its true distance whatever the camera's pitch.
@@ -332,8 +360,8 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
   Eigen::Vector3f map_min = Eigen::Vector3f::Constant(big);
   Eigen::Vector3f map_max = Eigen::Vector3f::Constant(-big);
   float xs_min = big, xs_max = -big, ys_min = big, ys_max = -big, z_near = big, z_far = -big;
-  int pu0 = u1, pu1 = u0;
-  for (int u = u0; u <= u1; ++u) {
+  int pu0 = band.u1, pu1 = band.u0;
+  for (int u = band.u0; u <= band.u1; ++u) {
     const std::uint16_t n = col_count_[static_cast<std::size_t>(u)];
     if (n == 0) continue;
     const float z = static_cast<float>(col_depth_sum_[static_cast<std::size_t>(u)]) /
@@ -355,7 +383,7 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
     pu1 = std::max(pu1, u);
   }
   if (pu1 < pu0) return false;
-  for (int v = best_start; v <= best_end; ++v) {
+  for (int v = band.v0; v <= band.v1; ++v) {
     const std::uint16_t n = row_hits_[static_cast<std::size_t>(v)];
     if (n == 0) continue;
     const float z = static_cast<float>(row_depth_sum_[static_cast<std::size_t>(v)]) /
@@ -377,7 +405,7 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
   box_map->max = map_max;
   box_cam->min = Eigen::Vector3f(xs_min / cam.fx, ys_min / cam.fy, z_near);
   box_cam->max = Eigen::Vector3f(xs_max / cam.fx, ys_max / cam.fy, z_far);
-  *ibox = ImageBox{pu0, best_start, pu1, best_end};
+  *ibox = ImageBox{pu0, band.v0, pu1, band.v1};
   *near_depth = z_near;
   return true;
 }

@@ -108,6 +108,9 @@ class UMapDetector {
     int u0, u1, b0, b1, area;
   };
 
+  void set_point_thresholds(const CameraIntrinsics& cam) noexcept;
+  void boxes_from_groups(const DepthView& depth, const CameraIntrinsics& cam,
+                         const Pose& T_map_camera, DetectionList& out) noexcept;
   void extract_segments(int width) noexcept;
   int find_root(int i) noexcept;
   void unite(int a, int b) noexcept;
@@ -115,6 +118,17 @@ class UMapDetector {
   bool measure_group(const Group& g, const DepthView& depth, const CameraIntrinsics& cam,
                      const Pose& T_map_camera, Box3* box_cam, Box3* box_map, ImageBox* ibox,
                      float* near_depth) noexcept;
+  // The steps of measure_group: the group's columns [u0, u1] and raw depth band [raw_lo,
+  // raw_hi]; the longest run of image rows [v0, v1] with enough in-band pixels; the in-band
+  // depth sums per column and row over it; the camera- and map-frame boxes from those sums.
+  struct PixelBand {
+    int u0 = 0, u1 = -1, v0 = 0, v1 = -1;
+    std::uint32_t raw_lo = 0, raw_hi = 0;
+  };
+  bool find_row_run(const DepthView& depth, PixelBand* band) noexcept;
+  void sum_band_depths(const DepthView& depth, const PixelBand& band) noexcept;
+  bool fit_boxes(const PixelBand& band, const CameraIntrinsics& cam, const Pose& T_map_camera,
+                 Box3* box_cam, Box3* box_map, ImageBox* ibox, float* near_depth) const noexcept;
 
   UMapDetectorConfig config_{};
   bool initialized_ = false;
