@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Runs the whole test suite: dev tests, ASan+UBSan tests, TSan tests of the threaded code, the
-# -fno-exceptions -fno-rtti build with its tests, and the aarch64 cross build with its tests
-# under qemu-aarch64. Prints ctest's summary for each and exits non-zero if any step failed.
+# -fno-exceptions -fno-rtti build with its tests, the aarch64 cross build with its tests under
+# qemu-aarch64, and a short fixed-seed run of each libFuzzer target (ASan+UBSan, about 15 s
+# each). Prints ctest's summary for each and exits non-zero if any step failed.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
-PRESETS=(${DYNAMAP_TEST_PRESETS:-dev asan tsan noexcept aarch64})
+PRESETS=(${DYNAMAP_TEST_PRESETS:-dev asan tsan noexcept aarch64 fuzz})
 declare -A result
 failed=0
 
