@@ -57,8 +57,7 @@ int run(int argc, char** argv) {
     const Image16 depth = load_depth(seq, sf);
     const DepthView view{depth.pixels.data(), depth.width, depth.height,
                          depth.width * static_cast<int>(sizeof(std::uint16_t))};
-    if (!cmp.add_frame(view, cam, to_pose(sf.pose),
-                       static_cast<Stamp>(std::llround(sf.stamp * 1e9)))) {
+    if (!cmp.add_frame(view, cam, to_pose(sf.pose), seq.stamp_ns(sf.stamp))) {
       throw ToolError("integrate failed at " + sf.stamp_text);
     }
   }

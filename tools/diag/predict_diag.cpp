@@ -94,7 +94,7 @@ int run(int argc, char** argv) {
     const SequenceFrame& sf = seq.frames[f];
     const Image16 depth = load_depth(seq, sf);
     Frame frame;
-    frame.stamp = static_cast<Stamp>(std::llround(sf.stamp * 1e9));
+    frame.stamp = seq.stamp_ns(sf.stamp);
     frame.T_map_camera = to_pose(sf.pose);
     frame.depth = DepthView{depth.pixels.data(), depth.width, depth.height,
                             depth.width * static_cast<int>(sizeof(std::uint16_t))};
