@@ -34,11 +34,9 @@ struct Scene {
     (void)map->init(OccupancyMapConfig{});
     TrackerConfig tc;
     tc.kalman.model = model;
-    (void)tracker->init(tc);
+    (void)tracker->init(tc, 640, 480);
     (void)history->init(3'000'000'000ULL);
-    DynamicRegionCleanerConfig cc;
-    cc.min_z = 0.f;
-    (void)cleaner.init(cc);
+    (void)cleaner.init(DynamicRegionCleanerConfig{}, 0.f);
     dets.resize(n);
   }
 

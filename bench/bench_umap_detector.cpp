@@ -117,7 +117,7 @@ void BM_Refine(benchmark::State& state) {
     state.SkipWithError("detect");
   }
   MapRefiner refiner;
-  if (!ok(refiner.init(MapRefinerConfig{}))) state.SkipWithError("init");
+  if (!ok(refiner.init(MapRefinerConfig{}, 0.f))) state.SkipWithError("init");
   VoxelLookup lookup;
   if (state.range(0) == 1) {
     lookup = VoxelLookup{

@@ -17,7 +17,9 @@ int main() {
   dynamap::PipelineConfig config;  // documented defaults, 640x480 camera
   dynamap::ConfigError error;
   if (const dynamap::Status s = g_pipeline.init(config, &error); !dynamap::ok(s)) {
-    std::printf("init failed: %s (%s: %s)\n", dynamap::to_string(s), error.field, error.reason);
+    char why[256];
+    std::printf("init failed: %s (%s)\n", dynamap::to_string(s),
+                dynamap::describe(error, why, sizeof why));
     return 1;
   }
   std::printf("pipeline footprint: %.1f MiB (static)\n",

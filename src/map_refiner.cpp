@@ -23,11 +23,11 @@ bool box_valid(const Box3& b) noexcept {
 }
 }  // namespace
 
-Status MapRefiner::init(const MapRefinerConfig& config) noexcept {
+Status MapRefiner::init(const MapRefinerConfig& config, float ground_height) noexcept {
   if (!std::isfinite(config.inflate) || config.inflate < 1.f || config.inflate > 10.f) {
     return Status::kInvalidArgument;
   }
-  if (!std::isfinite(config.ground_height) || !std::isfinite(config.floor_margin) ||
+  if (!std::isfinite(ground_height) || !std::isfinite(config.floor_margin) ||
       config.floor_margin < 0.f) {
     return Status::kInvalidArgument;
   }
@@ -36,6 +36,7 @@ Status MapRefiner::init(const MapRefinerConfig& config) noexcept {
     return Status::kInvalidArgument;
   }
   config_ = config;
+  ground_height_ = ground_height;
   initialized_ = true;
   stats_ = MapRefinerStats{};
   return Status::kOk;
@@ -43,7 +44,7 @@ Status MapRefiner::init(const MapRefinerConfig& config) noexcept {
 
 Status MapRefiner::set_ground_height(float z) noexcept {
   if (!std::isfinite(z)) return Status::kNonFinite;
-  config_.ground_height = z;
+  ground_height_ = z;
   return Status::kOk;
 }
 
@@ -72,7 +73,7 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
   search.min.array() -= half;
   search.max.array() += half;
   // The floor band is cut from the search box itself, so the voxel budget is not spent on it.
-  const float floor_top = config_.ground_height + config_.floor_margin;
+  const float floor_top = ground_height_ + config_.floor_margin;
   search.min.z() = std::max(search.min.z(), floor_top);
 
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());

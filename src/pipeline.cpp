@@ -38,23 +38,15 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   if (error != nullptr) *error = e;
   if (!e.ok()) return e.status;
 
-  // One source of truth: the camera size and the ground height are set once, here, for every
-  // stage that needs them.
-  TrackerConfig tracker = config.tracker;
-  tracker.image_width = config.camera.width;
-  tracker.image_height = config.camera.height;
-  MapRefinerConfig refiner = config.refiner;
-  refiner.ground_height = config.ground_height;
-  DynamicRegionCleanerConfig cleaner = config.cleaner;
-  cleaner.min_z = config.ground_height + refiner.floor_margin;
-
-  // Stages validate their own configuration; the first refusal is reported.
+  // Stages validate their own configuration; the first refusal is reported. The camera size
+  // and the ground height are the pipeline's fields, handed to the stages that need them.
+  const float floor_top = config.ground_height + config.refiner.floor_margin;
   Status s = map_.init(config.map);
   if (ok(s)) s = detector_.init(config.detector);
-  if (ok(s)) s = refiner_.init(refiner);
-  if (ok(s)) s = tracker_.init(tracker);
+  if (ok(s)) s = refiner_.init(config.refiner, config.ground_height);
+  if (ok(s)) s = tracker_.init(config.tracker, config.camera.width, config.camera.height);
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
-  if (ok(s)) s = cleaner_.init(cleaner);
+  if (ok(s)) s = cleaner_.init(config.cleaner, floor_top);
   if (ok(s)) s = markov_.init(config.predictor);
   if (ok(s)) {
     LinearPredictorConfig lc;
@@ -64,7 +56,10 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   }
   if (!ok(s)) {
     initialized_ = false;
-    if (error != nullptr) *error = ConfigError{s, "pipeline", "a stage rejected its configuration"};
+    // validate() accepts only what every stage accepts (test_parameters): this is a bug.
+    if (error != nullptr) {
+      *error = ConfigError{s, "pipeline", "a stage refused a configuration validate() accepted"};
+    }
     return s;
   }
 

@@ -35,20 +35,19 @@ Status validate_detection(const Detection& d) noexcept {
 
 Status TrackerConfig::validate() const noexcept {
   if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
-  const bool good =
-      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
-      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
-      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
-      noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
-      std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
-      std::isfinite(max_coast_time) && max_coast_time > 0.f &&
+  const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
+                    overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
+                    std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
+                    std::isfinite(noise_reference_depth) && noise_reference_depth >= 0.f &&
+                    std::isfinite(max_extent_change_ratio) && std::isfinite(max_round_footprint) &&
+                    max_round_footprint >= 0.f && std::isfinite(max_coast_time) &&
+                    max_coast_time > 0.f &&
 
-      history_length + 1 <= kMaxTrackHistory &&
-      continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
-      box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 && image_width > 0 &&
-      image_height > 0 && early_votes <= continuity.vote_window &&
-      early_displacement_frames < continuity.displacement_frames && image_margin >= 0 &&
-      2 * image_margin < image_width && 2 * image_margin < image_height;
+                    history_length + 1 <= kMaxTrackHistory &&
+                    continuity.displacement_frames + 1 <= history_length &&
+                    box_history_length >= 1 && box_history_length <= kMaxBoxHistory &&
+                    size_fix_frames >= 1 && early_votes <= continuity.vote_window &&
+                    early_displacement_frames < continuity.displacement_frames && image_margin >= 0;
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 
@@ -56,10 +55,15 @@ Tracker::Tracker() noexcept {
   clear();
 }
 
-Status Tracker::init(const TrackerConfig& config) noexcept {
+Status Tracker::init(const TrackerConfig& config, int image_width, int image_height) noexcept {
   const Status s = config.validate();
   if (!ok(s)) return s;
+  if (image_width <= 2 * config.image_margin || image_height <= 2 * config.image_margin) {
+    return Status::kInvalidArgument;
+  }
   config_ = config;
+  image_width_ = image_width;
+  image_height_ = image_height;
   clear();
   return Status::kOk;
 }
@@ -74,8 +78,7 @@ void Tracker::clear() noexcept {
 bool Tracker::fully_in_view(const ImageBox& b) const noexcept {
   const int m = config_.image_margin;
   if (b.u1 < b.u0 || b.v1 < b.v0) return false;  // unknown / empty image box
-  return b.u0 >= m && b.v0 >= m && b.u1 <= config_.image_width - 1 - m &&
-         b.v1 <= config_.image_height - 1 - m;
+  return b.u0 >= m && b.v0 >= m && b.u1 <= image_width_ - 1 - m && b.v1 <= image_height_ - 1 - m;
 }
 
 bool Tracker::moves_rigidly(const Track& t) const noexcept {

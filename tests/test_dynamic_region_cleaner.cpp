@@ -58,11 +58,10 @@ struct Scene {
 
   void init(const DynamicRegionCleanerConfig& config = {}) {
     ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
-    ASSERT_EQ(tracker->init(TrackerConfig{}), Status::kOk);
+    ASSERT_EQ(tracker->init(TrackerConfig{}, 640, 480), Status::kOk);
     ASSERT_EQ(history->init(3'000'000'000ULL), Status::kOk);
-    DynamicRegionCleanerConfig c = config;
-    c.min_z = 0.0f;  // the floor (voxels below z = 0) is never cleared
-    ASSERT_EQ(cleaner.init(c), Status::kOk);
+    // The floor (voxels below z = 0) is never cleared.
+    ASSERT_EQ(cleaner.init(config, 0.0f), Status::kOk);
     occupy(*map, Box3{Eigen::Vector3f(7.0f, -1.f, 0.f), Eigen::Vector3f(7.1f, 1.f, 2.f)}, &wall);
     occupy(*map, Box3{Eigen::Vector3f(3.f, -2.f, -0.1f), Eigen::Vector3f(6.f, 2.f, 0.f)}, &floor);
     occupy(*map, pillar_box, &pillar);
@@ -167,10 +166,11 @@ TEST(DynamicRegionCleaner, BadConfigIsRefused) {
   DynamicRegionCleaner c;
   DynamicRegionCleanerConfig config;
   config.frames = kMaxBoxHistory + 1;
-  EXPECT_EQ(c.init(config), Status::kInvalidArgument);
+  EXPECT_EQ(c.init(config, 0.f), Status::kInvalidArgument);
   config = DynamicRegionCleanerConfig{};
   config.inflation = 0.5f;
-  EXPECT_EQ(c.init(config), Status::kInvalidArgument);
+  EXPECT_EQ(c.init(config, 0.f), Status::kInvalidArgument);
+  EXPECT_EQ(c.init(DynamicRegionCleanerConfig{}, NAN), Status::kInvalidArgument);
 }
 
 }  // namespace

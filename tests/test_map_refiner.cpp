@@ -62,7 +62,7 @@ class MapRefinerTest : public ::testing::Test {
     fill(*map, Eigen::Vector3f(2.0f, -0.3f, 0.1f), Eigen::Vector3f(2.5f, 0.3f, 1.2f));
     // A neighbour outside the inflated box.
     fill(*map, Eigen::Vector3f(3.3f, -0.2f, 0.1f), Eigen::Vector3f(3.6f, 0.2f, 1.0f));
-    ASSERT_EQ(refiner.init(MapRefinerConfig{}), Status::kOk);
+    ASSERT_EQ(refiner.init(MapRefinerConfig{}, 0.f), Status::kOk);
   }
   Detection noisy_detection() const {
     Detection d;
@@ -137,7 +137,7 @@ TEST_F(MapRefinerTest, NoSupportKeepsRawBoxUnrefined) {
 TEST_F(MapRefinerTest, MinSupportVoxels) {
   MapRefinerConfig cfg;
   cfg.min_support_voxels = 10000;  // more than the obstacle has
-  ASSERT_EQ(refiner.init(cfg), Status::kOk);
+  ASSERT_EQ(refiner.init(cfg, 0.f), Status::kOk);
   Detection d = noisy_detection();
   ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, &d, 1), Status::kOk);
   EXPECT_FALSE(d.refined);
@@ -146,7 +146,7 @@ TEST_F(MapRefinerTest, MinSupportVoxels) {
 TEST_F(MapRefinerTest, WorkIsBoundedPerBox) {
   MapRefinerConfig cfg;
   cfg.max_voxels_per_box = 64;
-  ASSERT_EQ(refiner.init(cfg), Status::kOk);
+  ASSERT_EQ(refiner.init(cfg, 0.f), Status::kOk);
   CleanSet clean;
   ASSERT_EQ(clean.insert(12345u), Status::kOk);
   Detection huge;
@@ -179,15 +179,16 @@ TEST_F(MapRefinerTest, BadInputChangesNothing) {
 
   MapRefinerConfig bad;
   bad.inflate = 0.9f;
-  EXPECT_EQ(refiner.init(bad), Status::kInvalidArgument);
+  EXPECT_EQ(refiner.init(bad, 0.f), Status::kInvalidArgument);
   bad = {};
   bad.max_voxels_per_box = 0;
-  EXPECT_EQ(refiner.init(bad), Status::kInvalidArgument);
+  EXPECT_EQ(refiner.init(bad, 0.f), Status::kInvalidArgument);
   bad.max_voxels_per_box = kMaxRefinerVoxelsPerBox + 1;  // every work cap has an upper bound
-  EXPECT_EQ(refiner.init(bad), Status::kInvalidArgument);
+  EXPECT_EQ(refiner.init(bad, 0.f), Status::kInvalidArgument);
   EXPECT_EQ(refiner.set_ground_height(NAN), Status::kNonFinite);
   EXPECT_FLOAT_EQ(refiner.config().inflate, 1.15f);
-  EXPECT_FLOAT_EQ(refiner.config().ground_height, 0.f);
+  EXPECT_FLOAT_EQ(refiner.ground_height(), 0.f);
+  EXPECT_EQ(refiner.init(MapRefinerConfig{}, NAN), Status::kInvalidArgument);
 }
 
 TEST_F(MapRefinerTest, ZeroAllocations) {
@@ -229,7 +230,7 @@ TEST(MapRefinerEndToEnd, DetectorBoxesRefinedAgainstIntegratedMap) {
   ASSERT_EQ(detector->detect(img.view(), cam, pose, dets), Status::kOk);
   ASSERT_EQ(dets.size(), 3u);
   MapRefiner refiner;
-  ASSERT_EQ(refiner.init(MapRefinerConfig{}), Status::kOk);
+  ASSERT_EQ(refiner.init(MapRefinerConfig{}, 0.f), Status::kOk);
   ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, dets), Status::kOk);
   for (std::size_t i = 0; i < dets.size(); ++i) {
     const Box3 truth = test::box_to_map(scene.boxes[i].min, scene.boxes[i].max, pose);

@@ -13,6 +13,7 @@
 
 #include "common/png_io.hpp"
 #include "common/text_io.hpp"
+#include "dynamap/parameters.hpp"
 #include "eval/metrics.hpp"
 #include "sim/scene.hpp"
 #include "sim/writer.hpp"
@@ -399,6 +400,49 @@ TEST(Replay, ParameterFileKeysAreCompleteUniqueAndTheFileMustBeAFile) {
                  dir);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find(dir + ": not a parameter file"), std::string::npos) << r.output;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream f(path);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+// Every field has a YAML key (the library's table), --help-params lists each with its range,
+// docs/parameters.md is the table as generated, and the README names every user-tier field.
+TEST(Replay, ParameterDocsAndKeysComeFromTheLibraryTable) {
+  RunResult r = run_replay("--help-params");
+  ASSERT_EQ(r.exit_code, 0);
+  for (const Parameter& p : parameters()) {
+    EXPECT_NE(r.output.find(std::string(p.path) + ": "), std::string::npos) << p.path;
+  }
+  EXPECT_NE(r.output.find("map.resolution: 0.1  [user; [0.01, 10] m]"), std::string::npos)
+      << r.output.substr(0, 400);
+  r = run_replay("--params-markdown");
+  ASSERT_EQ(r.exit_code, 0);
+  EXPECT_EQ(r.output, read_file(std::string(DYNAMAP_SOURCE_DIR) + "/docs/parameters.md"))
+      << "docs/parameters.md is stale: dynamap-replay --params-markdown > docs/parameters.md";
+  const std::string readme = read_file(std::string(DYNAMAP_SOURCE_DIR) + "/README.md");
+  for (const Parameter& p : parameters()) {
+    if (p.tier != ParamTier::kUser) continue;
+    // Groups may be named once (camera.*, budgets.*): the README must show the key's group.
+    const std::string path = p.path;
+    const std::string group = path.substr(0, path.find('.')) + ".*";
+    EXPECT_TRUE(readme.find("`" + path + "`") != std::string::npos ||
+                readme.find("`" + group + "`") != std::string::npos)
+        << "README lacks user parameter " << path;
+  }
+  // Stage budgets are settable by name.
+  r = replay_with_params("stage_budget", "budgets:\n  stage_ns:\n    occupancy: 8000000\n",
+                         "--max-frames 1 --quiet")
+          .result;
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  r = replay_with_params("count_too_big", "map:\n  max_blocks: 99999999999999999999\n").result;
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("bad value for 'map.max_blocks'"), std::string::npos) << r.output;
+  r = replay_with_params("range_named", "map:\n  max_blocks: 100000\n").result;
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("map.max_blocks = 100000: must be in [1, 4096]"), std::string::npos)
+      << r.output;
 }
 
 }  // namespace

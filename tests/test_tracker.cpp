@@ -39,7 +39,7 @@ Pose camera_at(const Eigen::Vector3f& t = Eigen::Vector3f::Zero()) {
 
 std::unique_ptr<Tracker> make_tracker(const TrackerConfig& config = {}) {
   auto t = std::make_unique<Tracker>();
-  EXPECT_EQ(t->init(config), Status::kOk);
+  EXPECT_EQ(t->init(config, 640, 480), Status::kOk);
   return t;
 }
 
@@ -701,23 +701,27 @@ TEST(TrackerRobustness, BadConfigIsRefused) {
   Tracker tracker;
   TrackerConfig c;
   c.history_length = kMaxTrackHistory;  // k + 1 states would not fit
-  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.box_history_length = kMaxBoxHistory + 1;
-  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.overlap_threshold = std::nanf("");
-  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.continuity.displacement_frames = 20;  // needs n + 2 <= k + 1
-  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.max_extent_change_ratio = std::nanf("");
-  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.max_round_footprint = -1.f;
-  EXPECT_EQ(tracker.init(c), Status::kInvalidArgument);
-  EXPECT_EQ(tracker.init(TrackerConfig{}), Status::kOk);
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
+  c = TrackerConfig{};
+  c.image_margin = 240;  // no pixel of a 640 x 480 image is 240 px from every border
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(TrackerConfig{}, 0, 480), Status::kInvalidArgument);
+  EXPECT_EQ(tracker.init(TrackerConfig{}, 640, 480), Status::kOk);
 }
 
 // --- measurement: raw vs map-refined box -------------------------------------------------------

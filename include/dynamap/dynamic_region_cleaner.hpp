@@ -25,7 +25,6 @@ struct DynamicRegionCleanerConfig {
   std::size_t frames = 50;  ///< f: past boxes per track considered (<= kMaxBoxHistory)
   float inflation = 1.15f;  ///< horizontal extent factor about the box centre
   float z_margin = 0.2f;    ///< metres added below and above
-  float min_z = -1000.f;    ///< never clear below this height (e.g. ground + 0.2 m)
   /// Every frame each dynamic track clears its newest box plus about this many older ones, taken
   /// in turn, so every box of the last f frames is revisited at least every ceil((f - 1) / n)
   /// frames (0: newest box only).
@@ -36,7 +35,7 @@ struct DynamicRegionCleanerConfig {
   Status validate() const noexcept {
     const bool good = frames >= 1 && frames <= kMaxBoxHistory && std::isfinite(inflation) &&
                       inflation >= 1.f && std::isfinite(z_margin) && z_margin >= 0.f &&
-                      std::isfinite(min_z) && max_voxels_per_frame >= 1 &&
+                      max_voxels_per_frame >= 1 &&
                       max_voxels_per_frame <= kMaxCleanerVoxelsPerFrame;
     return good ? Status::kOk : Status::kInvalidArgument;
   }
@@ -53,11 +52,15 @@ struct CleanStats {
 
 class DynamicRegionCleaner {
  public:
-  /// Validates and applies `config`. Bad config: kInvalidArgument, nothing changes.
-  [[nodiscard]] Status init(const DynamicRegionCleanerConfig& config) noexcept {
+  /// Validates and applies `config`; nothing below height `min_z` (map frame, m) is ever cleared
+  /// (the pipeline passes ground_height + refiner.floor_margin). Bad config or non-finite min_z:
+  /// kInvalidArgument, nothing changes.
+  [[nodiscard]] Status init(const DynamicRegionCleanerConfig& config, float min_z) noexcept {
     const Status s = config.validate();
     if (!ok(s)) return s;
+    if (!std::isfinite(min_z)) return Status::kInvalidArgument;
     config_ = config;
+    min_z_ = min_z;
     frame_ = 0;
     has_stamp_ = false;
     return Status::kOk;
@@ -130,7 +133,7 @@ class DynamicRegionCleaner {
     Box3 r;
     r.min.head<2>() = c.head<2>() - config_.inflation * half.head<2>();
     r.max.head<2>() = c.head<2>() + config_.inflation * half.head<2>();
-    r.min.z() = std::fmax(b.min.z() - config_.z_margin, config_.min_z);
+    r.min.z() = std::fmax(b.min.z() - config_.z_margin, min_z_);
     r.max.z() = b.max.z() + config_.z_margin;
     return r;
   }
@@ -149,6 +152,7 @@ class DynamicRegionCleaner {
   }
 
   DynamicRegionCleanerConfig config_{};
+  float min_z_ = -1000.f;
   CleanStats stats_{};
   std::size_t frame_ = 0;
   Stamp last_stamp_ = 0;

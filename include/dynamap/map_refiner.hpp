@@ -32,7 +32,6 @@ inline constexpr std::size_t kMaxRefinerVoxelsPerBox = std::size_t{1} << 20;
 /// Parameters of the refinement (defaults from the original system).
 struct MapRefinerConfig {
   float inflate = 1.15f;      ///< C_inflate: raw box extents are multiplied by this
-  float ground_height = 0.f;  ///< map-frame z of the floor (metres)
   float floor_margin = 0.2f;  ///< voxels whose centre is below ground + margin are ignored
   std::size_t max_voxels_per_box = 16384;  ///< work cap per box and per pass (map, history)
   std::size_t min_support_voxels = 1;      ///< fewer support voxels -> keep the raw box
@@ -53,8 +52,9 @@ struct MapRefinerStats {
 /// Stateless apart from configuration and counters; refine() allocates nothing.
 class MapRefiner {
  public:
-  /// kInvalidArgument (previous configuration kept) when a parameter is out of range.
-  [[nodiscard]] Status init(const MapRefinerConfig& config) noexcept;
+  /// kInvalidArgument (previous configuration kept) when a parameter is out of range or
+  /// `ground_height` (map-frame z of the floor, m; PipelineConfig::ground_height) is not finite.
+  [[nodiscard]] Status init(const MapRefinerConfig& config, float ground_height) noexcept;
   /// Ground height may follow the vehicle's estimate frame by frame.
   [[nodiscard]] Status set_ground_height(float z) noexcept;
 
@@ -70,12 +70,14 @@ class MapRefiner {
   }
 
   const MapRefinerConfig& config() const noexcept { return config_; }
+  float ground_height() const noexcept { return ground_height_; }
   const MapRefinerStats& last_stats() const noexcept { return stats_; }
 
  private:
   void refine_one(const OccupancyMap& map, const VoxelLookup& clean, Detection& d) noexcept;
 
   MapRefinerConfig config_{};
+  float ground_height_ = 0.f;
   bool initialized_ = false;
   MapRefinerStats stats_{};
 };

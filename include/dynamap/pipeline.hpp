@@ -15,6 +15,7 @@
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"
+#include "dynamap/parameters.hpp"
 #include "dynamap/pipeline_config.hpp"
 #include "dynamap/prediction.hpp"
 #include "dynamap/stage_timing.hpp"

@@ -102,15 +102,22 @@ struct WorstCaseWork {
 /// predictor.paths.horizon_distance and slow_speed x slow_horizon_time.
 WorstCaseWork worst_case_work(const PipelineConfig& config) noexcept;
 
+struct Parameter;
+
 /// Result of PipelineConfig validation: the status, the first offending field and why.
+/// describe() (parameters.hpp) writes it as one line with the field's valid range.
 struct ConfigError {
   Status status = Status::kOk;
-  const char* field = "";   ///< e.g. "map.resolution"
-  const char* reason = "";  ///< e.g. "must be > 0 and finite"
+  const char* field = "";                ///< full path, e.g. "map.resolution"
+  const char* reason = "";               ///< e.g. "must be > map.min_depth"
+  const Parameter* parameter = nullptr;  ///< the field's table entry when its range was broken
+  double value = 0.0;                    ///< the value out of range (with `parameter`)
   bool ok() const noexcept { return status == Status::kOk; }
 };
 
-/// Checks every field of `config`; returns the first problem found (status kOk when none).
+/// Checks every field of `config` against its range (the parameter table, parameters.hpp), then
+/// the relations between fields and the worst-case work; returns the first problem found
+/// (status kOk when none). A configuration it accepts is accepted by every stage's init.
 ConfigError validate(const PipelineConfig& config) noexcept;
 
 }  // namespace dynamap

@@ -65,9 +65,7 @@ struct TrackerConfig {
   std::size_t history_length = 20;      ///< k: the state history holds k + 1 positions
   std::size_t box_history_length = 50;  ///< f: past boxes kept for dynamic-region cleaning
   std::size_t size_fix_frames = 10;     ///< k': frames fully in view before the size is frozen
-  int image_width = 640;                ///< depth image size, for the "fully in view" test
-  int image_height = 480;
-  int image_margin = 5;  ///< pixels the image box must stay away from the border
+  int image_margin = 5;                 ///< pixels the image box must stay away from the border
   /// Only detections whose nearest surface is at most this far (m) count towards size fixing:
   /// far away the depth noise and lost edge pixels make boxes too small.
   float size_fix_max_depth = 5.0f;
@@ -155,8 +153,11 @@ struct TrackedObstacle {
 class Tracker {
  public:
   Tracker() noexcept;
-  /// Validates and applies `config`, dropping all tracks. Bad config: kInvalidArgument, no change.
-  [[nodiscard]] Status init(const TrackerConfig& config) noexcept;
+  /// Validates and applies `config` for depth images of image_width x image_height pixels (the
+  /// "fully in view" test), dropping all tracks. Bad config, or an image too small for
+  /// config.image_margin: kInvalidArgument, no change.
+  [[nodiscard]] Status init(const TrackerConfig& config, int image_width,
+                            int image_height) noexcept;
   /// One frame: `count` detections (map frame) seen from camera pose T_map_camera at `stamp`.
   /// Errors (nothing changes): kNullData (dets null with count > 0), kCapacityExceeded
   /// (count > kMaxDetections), kNonFinite / kNonUnitQuaternion (pose), kNonFinite /
@@ -225,6 +226,8 @@ class Tracker {
   void publish() noexcept;
 
   TrackerConfig config_{};
+  int image_width_ = 0;  ///< of the depth images, from init
+  int image_height_ = 0;
   std::array<Track, kMaxTracks> tracks_{};
   std::array<TrackedObstacle, kMaxTracks> output_{};
   std::array<std::uint8_t, kMaxTracks> output_slot_{};

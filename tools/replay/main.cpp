@@ -6,7 +6,7 @@
 //
 //   dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N] [--picture-every N] [--quiet]
 //                  [--strict] [--poses tum|bonn] [--cpu-clock]
-//   dynamap-replay --help-params
+//   dynamap-replay --help-params | --params-markdown
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -61,12 +61,14 @@ void usage(std::ostream& os) {
   os << "usage: dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N]\n"
         "                      [--picture-every N] [--quiet] [--strict] [--poses tum|bonn]\n"
         "                      [--cpu-clock]\n"
-        "       dynamap-replay --help-params\n"
+        "       dynamap-replay --help-params | --params-markdown\n"
         "Runs the dynamap pipeline over SEQ (TUM RGB-D layout, see docs/data_format.md) and\n"
         "writes DIR/tracks.csv, DIR/detections.csv, DIR/predictions.csv,\n"
         "DIR/predictions_linear.csv, DIR/timing.csv, DIR/topview.png (final state) and, with\n"
         "--picture-every N, DIR/frames/frame_NNNNN.png.\n"
         "--params FILE: YAML with PipelineConfig keys (e.g. 'map: {resolution: 0.1}').\n"
+        "--help-params: every key with its value, tier, valid range and meaning\n"
+        "  (docs/parameters.md); --params-markdown prints that page's tables.\n"
         "--strict: stop at the first listed depth file that is missing, unreadable or of the\n"
         "  wrong size (default: skip it, count it, name it, go on, and exit with status 3).\n"
         "--poses bonn: the poses are the Bonn RGB-D Dynamic dataset's as published\n"
@@ -105,7 +107,13 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
       exit_code = 0;
       return false;
     } else if (a == "--help-params") {
-      for (const std::string& line : describe_params(replay_defaults())) std::cout << line << "\n";
+      for (const std::string& line : describe_params(replay_defaults(), true)) {
+        std::cout << line << "\n";
+      }
+      exit_code = 0;
+      return false;
+    } else if (a == "--params-markdown") {
+      std::cout << parameters_markdown();
       exit_code = 0;
       return false;
     } else if (a == "--out") {

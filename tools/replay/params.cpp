@@ -3,242 +3,139 @@
 #include <cstdint>
 #include <exception>
 #include <filesystem>
-#include <functional>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <system_error>
-#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 
 #include "common/text_io.hpp"
+#include "dynamap/parameters.hpp"
 
 namespace dynamap::tools {
 namespace {
 
-// One settable field: its dotted key, a parser from a YAML scalar, and a printer.
-struct Param {
-  std::string key;
-  std::function<bool(const YAML::Node&, PipelineConfig&)> set;
-  std::function<std::string(const PipelineConfig&)> get;
-  std::string allowed;  // spelled-out values of an enum key, for the error message
-  bool list = false;    // the value is a YAML list (a 3-vector), not a scalar
-};
-
-template <typename Access>
-Param make_param(const char* key, Access access) {
-  using T = std::remove_pointer_t<decltype(access(std::declval<PipelineConfig&>()))>;
-  Param p;
-  p.key = key;
-  p.set = [access](const YAML::Node& n, PipelineConfig& c) {
-    T v{};
-    if constexpr (std::is_same_v<T, bool>) {
-      if (!YAML::convert<bool>::decode(n, v)) return false;
-    } else if constexpr (std::is_unsigned_v<T>) {
-      // yaml-cpp would wrap a negative number into a huge unsigned one; refuse it instead.
-      long long s = 0;
-      if (!YAML::convert<long long>::decode(n, s) || s < 0) return false;
-      v = static_cast<T>(s);
-    } else {
-      if (!YAML::convert<T>::decode(n, v)) return false;
-    }
-    *access(c) = v;
-    return true;
-  };
-  p.get = [access](const PipelineConfig& c) {
-    std::ostringstream os;
-    os << +*access(const_cast<PipelineConfig&>(c));
-    return os.str();
-  };
-  return p;
-}
-
-// A 3-vector (x, y, z), written as a YAML list of three numbers: [0.2, 0.2, 0.8].
-Param vector3_param(const char* key, Eigen::Vector3f* (*access)(PipelineConfig&)) {
-  Param p;
-  p.key = key;
-  p.list = true;
-  p.set = [access](const YAML::Node& n, PipelineConfig& c) {
+// Reads one YAML value of parameter `p` into `config`. False when the value cannot be one of
+// the field's type (a word for a number, a negative count, 2 numbers for a 3-vector); whether
+// it is in range is validate()'s question, so the message can name the range.
+bool set_value(const Parameter& p, const YAML::Node& n, PipelineConfig& config) {
+  constexpr double kExactInteger = 9007199254740992.0;  // 2^53: larger counts lose digits
+  if (p.kind == ParamKind::kVector3) {
     if (!n.IsSequence() || n.size() != 3) return false;
-    Eigen::Vector3f v;
+    double v[3];
     for (std::size_t i = 0; i < 3; ++i) {
-      if (!n[i].IsScalar() || !YAML::convert<float>::decode(n[i], v[static_cast<int>(i)])) {
+      if (!n[i].IsScalar() || !YAML::convert<double>::decode(n[i], v[i])) return false;
+    }
+    for (int i = 0; i < 3; ++i) p.set(config, i, v[i]);
+    return true;
+  }
+  if (!n.IsScalar()) return false;
+  double v = 0.0;
+  switch (p.kind) {
+    case ParamKind::kBool: {
+      bool b = false;
+      if (!YAML::convert<bool>::decode(n, b)) return false;
+      v = b ? 1.0 : 0.0;
+      break;
+    }
+    case ParamKind::kEnum: {
+      const ParamChoice* choice = nullptr;
+      for (std::size_t i = 0; i < p.choice_count; ++i) {
+        if (n.Scalar() == p.choices[i].name) choice = &p.choices[i];
+      }
+      if (choice == nullptr) return false;
+      v = choice->value;
+      break;
+    }
+    case ParamKind::kInt: {
+      long long i = 0;
+      if (!YAML::convert<long long>::decode(n, i) || i < std::numeric_limits<int>::min() ||
+          i > std::numeric_limits<int>::max()) {
         return false;
       }
+      v = static_cast<double>(i);
+      break;
     }
-    *access(c) = v;
-    return true;
-  };
-  p.get = [access](const PipelineConfig& c) {
-    const Eigen::Vector3f& v = *access(const_cast<PipelineConfig&>(c));
-    std::ostringstream os;
-    os << "[" << v.x() << ", " << v.y() << ", " << v.z() << "]";
-    return os.str();
-  };
-  p.allowed = "a list of three numbers, [x, y, z]";
-  return p;
-}
-
-// An enum key, spelled out in YAML: `names` lists each accepted spelling with its value.
-template <typename E>
-Param enum_param(const char* key, E* (*access)(PipelineConfig&),
-                 std::vector<std::pair<std::string, E>> names) {
-  Param p;
-  p.key = key;
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    p.allowed += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i].first;
-  }
-  p.set = [access, names](const YAML::Node& n, PipelineConfig& c) {
-    std::string v;
-    if (!YAML::convert<std::string>::decode(n, v)) return false;
-    for (const auto& [name, value] : names) {
-      if (v == name) {
-        *access(c) = value;
-        return true;
+    case ParamKind::kCount: {
+      // yaml-cpp would wrap a negative number into a huge unsigned one; refuse it instead.
+      long long i = 0;
+      if (!YAML::convert<long long>::decode(n, i) || i < 0 ||
+          static_cast<double>(i) > kExactInteger) {
+        return false;
       }
+      v = static_cast<double>(i);
+      break;
     }
-    return false;
-  };
-  p.get = [access, names](const PipelineConfig& c) {
-    const E value = *access(const_cast<PipelineConfig&>(c));
-    for (const auto& [name, v] : names) {
-      if (v == value) return name;
-    }
-    return std::string("invalid");
-  };
-  return p;
+    case ParamKind::kFloat:
+    case ParamKind::kVector3:
+      if (!YAML::convert<double>::decode(n, v)) return false;
+      break;
+  }
+  p.set(config, 0, v);
+  return true;
 }
 
-#define DYNAMAP_PARAM(path) make_param(#path, [](PipelineConfig& c) { return &c.path; })
-
-const std::vector<Param>& params() {
-  static const std::vector<Param> table = {
-      DYNAMAP_PARAM(map.resolution),
-      DYNAMAP_PARAM(map.prob_hit),
-      DYNAMAP_PARAM(map.prob_miss),
-      DYNAMAP_PARAM(map.prob_min),
-      DYNAMAP_PARAM(map.prob_max),
-      DYNAMAP_PARAM(map.prob_occupied),
-      DYNAMAP_PARAM(map.min_depth),
-      DYNAMAP_PARAM(map.max_depth),
-      DYNAMAP_PARAM(map.pixel_margin),
-      DYNAMAP_PARAM(map.pixel_stride),
-      vector3_param("map.local_half_extent",
-                    [](PipelineConfig& c) { return &c.map.local_half_extent; }),
-      DYNAMAP_PARAM(map.max_blocks),
-      DYNAMAP_PARAM(map.max_rays_per_frame),
-      DYNAMAP_PARAM(map.max_voxel_visits_per_frame),
-      DYNAMAP_PARAM(map.merge_rays_per_voxel),
-      DYNAMAP_PARAM(map.free_ray_early_stop),
-      DYNAMAP_PARAM(detector.bins),
-      DYNAMAP_PARAM(detector.d_min),
-      DYNAMAP_PARAM(detector.d_max),
-      DYNAMAP_PARAM(detector.smoothing_radius),
-      DYNAMAP_PARAM(detector.count_threshold),
-      DYNAMAP_PARAM(detector.min_point_height),
-      DYNAMAP_PARAM(detector.min_segment_length),
-      DYNAMAP_PARAM(detector.min_area),
-      DYNAMAP_PARAM(detector.band_factor),
-      DYNAMAP_PARAM(detector.max_candidates),
-      DYNAMAP_PARAM(detector.max_detections),
-      DYNAMAP_PARAM(detector.row_fill_fraction),
-      DYNAMAP_PARAM(detector.max_row_gap),
-      DYNAMAP_PARAM(detector.min_run_rows),
-      DYNAMAP_PARAM(detector.max_width_fraction),
-      DYNAMAP_PARAM(detector.max_width),
-      DYNAMAP_PARAM(detector.max_height),
-      DYNAMAP_PARAM(detector.max_depth_extent),
-      DYNAMAP_PARAM(detector.box_from_surface_points),
-      DYNAMAP_PARAM(refiner.inflate),
-      DYNAMAP_PARAM(refiner.floor_margin),
-      DYNAMAP_PARAM(refiner.max_voxels_per_box),
-      DYNAMAP_PARAM(refiner.min_support_voxels),
-      DYNAMAP_PARAM(refiner.tighten_only),
-      DYNAMAP_PARAM(tracker.kalman.p0_position),
-      DYNAMAP_PARAM(tracker.kalman.p0_velocity),
-      DYNAMAP_PARAM(tracker.kalman.q_position),
-      DYNAMAP_PARAM(tracker.kalman.q_velocity),
-      DYNAMAP_PARAM(tracker.kalman.r_position),
-      DYNAMAP_PARAM(tracker.kalman.r_velocity),
-      // "cv" is the original filter (docs/design.md), "imm" adds the coordinated turn.
-      enum_param<MotionModel>(
-          "tracker.kalman.model", [](PipelineConfig& c) { return &c.tracker.kalman.model; },
-          {{"cv", MotionModel::kConstantVelocity}, {"imm", MotionModel::kTurnImm}}),
-      DYNAMAP_PARAM(tracker.kalman.imm.q_accel_straight),
-      DYNAMAP_PARAM(tracker.kalman.imm.q_accel_turn),
-      DYNAMAP_PARAM(tracker.kalman.imm.q_turn_rate),
-      DYNAMAP_PARAM(tracker.kalman.imm.p0_turn_rate),
-      DYNAMAP_PARAM(tracker.kalman.imm.max_turn_rate),
-      DYNAMAP_PARAM(tracker.kalman.imm.mean_straight_time),
-      DYNAMAP_PARAM(tracker.kalman.imm.mean_turn_time),
-      DYNAMAP_PARAM(tracker.continuity.displacement_frames),
-      DYNAMAP_PARAM(tracker.continuity.continuity_threshold),
-      DYNAMAP_PARAM(tracker.continuity.min_speed),
-      DYNAMAP_PARAM(tracker.continuity.vote_window),
-      DYNAMAP_PARAM(tracker.continuity.dynamic_votes),
-      DYNAMAP_PARAM(tracker.continuity.static_votes),
-      DYNAMAP_PARAM(tracker.continuity.check_size),
-      vector3_param("tracker.continuity.min_size",
-                    [](PipelineConfig& c) { return &c.tracker.continuity.min_size; }),
-      vector3_param("tracker.continuity.max_size",
-                    [](PipelineConfig& c) { return &c.tracker.continuity.max_size; }),
-      DYNAMAP_PARAM(tracker.overlap_threshold),
-      DYNAMAP_PARAM(tracker.centre_gate),
-      DYNAMAP_PARAM(tracker.max_missed_frames),
-      DYNAMAP_PARAM(tracker.max_coast_time),
-      DYNAMAP_PARAM(tracker.history_length),
-      DYNAMAP_PARAM(tracker.box_history_length),
-      DYNAMAP_PARAM(tracker.size_fix_frames),
-      DYNAMAP_PARAM(tracker.image_margin),
-      DYNAMAP_PARAM(tracker.size_fix_max_depth),
-      DYNAMAP_PARAM(tracker.noise_reference_depth),
-      DYNAMAP_PARAM(tracker.correct_near_surface_bias),
-      DYNAMAP_PARAM(tracker.max_extent_change_ratio),
-      DYNAMAP_PARAM(tracker.max_round_footprint),
-      DYNAMAP_PARAM(tracker.early_votes),
-      DYNAMAP_PARAM(tracker.early_displacement_frames),
-      DYNAMAP_PARAM(tracker.size_fix_growth),
-      DYNAMAP_PARAM(tracker.measure_raw_box),
-      DYNAMAP_PARAM(tracker.compensate_size_steps),
-      DYNAMAP_PARAM(cleaner.frames),
-      DYNAMAP_PARAM(cleaner.inflation),
-      DYNAMAP_PARAM(cleaner.z_margin),
-      DYNAMAP_PARAM(cleaner.max_voxels_per_frame),
-      DYNAMAP_PARAM(predictor.paths.num_paths),
-      DYNAMAP_PARAM(predictor.paths.turn_curvature),
-      DYNAMAP_PARAM(predictor.paths.max_heading_change),
-      DYNAMAP_PARAM(predictor.paths.horizon_distance),
-      DYNAMAP_PARAM(predictor.paths.sample_interval),
-      DYNAMAP_PARAM(predictor.sigma_init),
-      DYNAMAP_PARAM(predictor.sigma_trans),
-      DYNAMAP_PARAM(predictor.beta),
-      DYNAMAP_PARAM(predictor.unknown_weight),
-      DYNAMAP_PARAM(predictor.choose_free),
-      // The update of docs/design.md §4.6 is "compound"; the others: BeliefUpdate.
-      enum_param<BeliefUpdate>(
-          "predictor.belief_update", [](PipelineConfig& c) { return &c.predictor.belief_update; },
-          {{"compound", BeliefUpdate::kCompound}, {"choice_only", BeliefUpdate::kChoiceOnly}}),
-      DYNAMAP_PARAM(predictor.depth_check.enabled),
-      DYNAMAP_PARAM(predictor.depth_check.noise_margin),
-      DYNAMAP_PARAM(predictor.depth_check.noise_quadratic),
-      DYNAMAP_PARAM(predictor.depth_check.surface_thickness),
-      DYNAMAP_PARAM(predictor.depth_check.min_depth),
-      DYNAMAP_PARAM(predictor.depth_check.max_depth),
-      DYNAMAP_PARAM(predictor.clearance.height_levels),
-      DYNAMAP_PARAM(predictor.clearance.self_margin),
-      DYNAMAP_PARAM(run_linear_baseline),
-      DYNAMAP_PARAM(ground_height),
-      DYNAMAP_PARAM(clean_history_max_age_ns),
-      DYNAMAP_PARAM(budgets.frame_ns),
-      DYNAMAP_PARAM(budgets.adaptive_stride),
-      DYNAMAP_PARAM(budgets.max_pixel_stride),
-  };
-  return table;
+// The accepted spelling of a value of `p`, for "bad value" messages.
+std::string value_shape(const Parameter& p) {
+  char range[128];
+  switch (p.kind) {
+    case ParamKind::kVector3:
+      return "a list of three numbers, [x, y, z]";
+    case ParamKind::kBool:
+    case ParamKind::kEnum:
+      return p.range_text(range, sizeof range);
+    case ParamKind::kInt:
+    case ParamKind::kCount:
+      return std::string("an integer, ") + p.range_text(range, sizeof range);
+    case ParamKind::kFloat:
+      return std::string("a number, ") + p.range_text(range, sizeof range);
+  }
+  return "";
 }
 
-#undef DYNAMAP_PARAM
+// The current value of `p` in `config`, as the YAML file would spell it.
+std::string value_text(const Parameter& p, const PipelineConfig& config) {
+  std::ostringstream os;
+  const auto number = [&](int i) {
+    const double v = p.get(config, i);
+    if (p.kind == ParamKind::kInt || p.kind == ParamKind::kCount) {
+      os << static_cast<unsigned long long>(v);
+    } else {
+      os << static_cast<float>(v);
+    }
+  };
+  switch (p.kind) {
+    case ParamKind::kBool:
+      os << (p.get(config, 0) != 0.0 ? "true" : "false");
+      break;
+    case ParamKind::kEnum: {
+      const int v = static_cast<int>(p.get(config, 0));
+      const char* name = "invalid";
+      for (std::size_t i = 0; i < p.choice_count; ++i) {
+        if (p.choices[i].value == v) name = p.choices[i].name;
+      }
+      os << name;
+      break;
+    }
+    case ParamKind::kVector3:
+      os << "[";
+      for (int i = 0; i < 3; ++i) {
+        if (i > 0) os << ", ";
+        number(i);
+      }
+      os << "]";
+      break;
+    case ParamKind::kInt:
+      os << static_cast<long long>(p.get(config, 0));
+      break;
+    default:
+      number(0);
+  }
+  return os.str();
+}
 
 std::string where(const std::string& path, const YAML::Node& n) {
   std::ostringstream os;
@@ -264,19 +161,16 @@ std::string apply_node(const std::string& path, const YAML::Node& node, const st
       if (!e.empty()) return e;
       continue;
     }
-    const Param* param = nullptr;
-    for (const Param& p : params()) {
-      if (p.key == key) param = &p;
-    }
+    const Parameter* param = find_parameter(key.c_str());
     if (param == nullptr) {
       return where(path, kv.first) + ": unknown parameter '" + key +
              "' (dynamap-replay --help-params lists them all)";
     }
-    if (value.IsScalar() == param->list || !param->set(value, config)) {
+    if (!set_value(*param, value, config)) {
       return where(path, value) + ": bad value for '" + key + "': '" +
              (value.IsScalar() ? value.Scalar()
                                : std::string(value.IsSequence() ? "<a list>" : "<not a scalar>")) +
-             "'" + (param->allowed.empty() ? std::string() : " (must be " + param->allowed + ")");
+             "' (must be " + value_shape(*param) + ")";
     }
   }
   return "";
@@ -313,15 +207,56 @@ std::string apply_params_file(const std::string& path, PipelineConfig& config) {
   }
   if (!e.empty()) return e;
   const ConfigError ce = validate(candidate);
-  if (!ce.ok()) return path + ": invalid value for '" + ce.field + "': " + ce.reason;
+  if (!ce.ok()) {
+    char line[512];
+    return path + ": invalid configuration: " + describe(ce, line, sizeof line);
+  }
   config = candidate;
   return "";
 }
 
-std::vector<std::string> describe_params(const PipelineConfig& config) {
+std::vector<std::string> describe_params(const PipelineConfig& config, bool all_tiers) {
   std::vector<std::string> out;
-  for (const Param& p : params()) out.push_back(p.key + ": " + p.get(config));
+  const PipelineConfig defaults = replay_defaults();
+  for (const Parameter& p : parameters()) {
+    if (!all_tiers && p.tier != ParamTier::kUser) continue;
+    char range[128];
+    std::string line = std::string(p.path) + ": " + value_text(p, config);
+    const std::string d = value_text(p, defaults);
+    if (d != value_text(p, config)) line += " (default " + d + ")";
+    line += "  [" + std::string(to_string(p.tier)) + "; " + p.range_text(range, sizeof range) +
+            "]  " + p.help;
+    out.push_back(line);
+  }
   return out;
+}
+
+std::string parameters_markdown() {
+  std::ostringstream os;
+  os << "# Parameters\n"
+     << "\n"
+     << "Every field of `PipelineConfig`, generated from the library's parameter table\n"
+     << "(`include/dynamap/parameters.hpp`, `src/parameters.cpp`) by `dynamap-replay "
+        "--params-markdown`;\n"
+     << "`test_replay` fails when this page and the table differ. Regenerate it with\n"
+     << "\n"
+     << "    build/release/tools/dynamap-replay --params-markdown > /tmp/t && \\\n"
+     << "      sed -n '1,/^\n";
+  const PipelineConfig defaults = replay_defaults();
+  for (ParamTier tier : {ParamTier::kUser, ParamTier::kCapacity, ParamTier::kExpert}) {
+    os << "\n## "
+       << (tier == ParamTier::kUser       ? "User"
+           : tier == ParamTier::kCapacity ? "Capacity"
+                                          : "Expert")
+       << " parameters\n\n| parameter | default | valid | meaning |\n|---|---|---|---|\n";
+    for (const Parameter& p : parameters()) {
+      if (p.tier != tier) continue;
+      char range[128];
+      os << "| `" << p.path << "` | " << value_text(p, defaults) << " | "
+         << p.range_text(range, sizeof range) << " | " << p.help << " |\n";
+    }
+  }
+  return os.str();
 }
 
 CameraIntrinsics intrinsics_of(const CameraModel& camera) {

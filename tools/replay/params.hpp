@@ -17,8 +17,14 @@ namespace dynamap::tools {
 /// Applies the YAML file at `path` onto `config`. Returns "" on success, else the error text.
 std::string apply_params_file(const std::string& path, PipelineConfig& config);
 
-/// Every key the parameter file accepts, with its current value in `config` (for --help-params).
-std::vector<std::string> describe_params(const PipelineConfig& config);
+/// One line per parameter the file accepts (the library's parameter table): key, value in
+/// `config` (and the default when it differs), tier, valid range and help. Only the user tier
+/// unless `all_tiers` (for --help-params).
+std::vector<std::string> describe_params(const PipelineConfig& config, bool all_tiers);
+
+/// docs/parameters.md: the parameter table as Markdown, one table per tier, with the replay's
+/// defaults (`dynamap-replay --params-markdown`; test_replay keeps the page current).
+std::string parameters_markdown();
 
 /// The library's intrinsics for a sequence's camera.txt model.
 CameraIntrinsics intrinsics_of(const CameraModel& camera);
