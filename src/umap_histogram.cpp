@@ -1,4 +1,4 @@
-#include "dynamap/umap_histogram.hpp"
+#include "dynamap/detail/umap_histogram.hpp"
 
 #include <cmath>
 #include <cstddef>

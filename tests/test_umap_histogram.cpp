@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "alloc_guard.hpp"
-#include "dynamap/umap_histogram.hpp"
+#include "dynamap/detail/umap_histogram.hpp"
 
 namespace dynamap {
 namespace {

@@ -14,7 +14,7 @@
 #include "dynamap/fixed_vector.hpp"
 #include "dynamap/status.hpp"
 #include "dynamap/types.hpp"
-#include "dynamap/umap_histogram.hpp"
+#include "dynamap/detail/umap_histogram.hpp"
 
 namespace dynamap {
 

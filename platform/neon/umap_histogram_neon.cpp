@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "dynamap/umap_histogram.hpp"
+#include "dynamap/detail/umap_histogram.hpp"
 
 namespace dynamap::detail {
 

@@ -1,4 +1,6 @@
-// U-map histogram kernel: for every image column u, how many of its pixels fall in each depth bin.
+// Internal: include/dynamap/detail/ is installed because Pipeline holds its stages inline, but it
+// is not a stable API. U-map histogram kernel: for every image column u, how many of its pixels
+// fall in each depth bin.
 // Two implementations behind one contract: a scalar reference and a fast path (NEON on aarch64
 // when DYNAMAP_HAVE_NEON, otherwise a chunked host loop the compiler vectorises). Both use the
 // same integer bin formula, so their outputs are identical bit for bit on every input.
