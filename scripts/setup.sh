@@ -13,6 +13,7 @@ PACKAGES=(
   libboost-dev liboctomap-dev                    # benchmark peers (boost::lockfree, OctoMap)
   libpng-dev libcairo2-dev libyaml-cpp-dev       # tools: PNG depth, pictures, YAML parameters
   clang libclang-rt-14-dev                       # fuzz preset: libFuzzer, ASan, UBSan
+  clang-tidy                                     # static checks of the library (run_tests.sh)
 )
 
 missing=()
