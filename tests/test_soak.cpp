@@ -40,7 +40,11 @@ TEST(Soak, CountersAddUpAndMemoryStaysFlatOver2000MixedFrames) {
   }
   EXPECT_GT(last.runner.processed, 1000u);
   EXPECT_GT(last.snapshots_seen, 0u);
-  // Memory after the warm-up (the first checkpoint) changes by at most 1 %.
+  // Memory after the warm-up (the first checkpoint) changes by at most 1 % (natively: under an
+  // emulator RSS is the emulator's, whose translation cache grows with each new code path).
+#ifdef DYNAMAP_TEST_EMULATED
+  GTEST_SKIP() << "RSS not checked under an emulator";
+#endif
   const double warm = static_cast<double>(cps.front().rss_bytes);
   ASSERT_GT(warm, 0.0);
   for (const auto& c : cps) {
