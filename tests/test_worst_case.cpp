@@ -82,8 +82,9 @@ TEST(WorstCaseFrames, DefaultsStayWithinTheDerivedBoundAndExerciseEveryStage) {
   const Work clutter = run_and_check(cfg, WorstCase::kClutter, 6);
   EXPECT_GE(clutter.detections, 18u);
   EXPECT_EQ(clutter.tracks, kMaxTracks);
-  // Approaching bars live long enough to be classified dynamic and predicted.
-  const Work approach = run_and_check(cfg, WorstCase::kApproach, 60);
+  // Approaching bars live long enough to be classified dynamic and predicted (from the tenth
+  // frame on).
+  const Work approach = run_and_check(cfg, WorstCase::kApproach, 16);
   EXPECT_GT(approach.path_samples, 0u) << "no prediction: the predictors were not exercised";
   EXPECT_GT(approach.tracks, 10u);
 }
@@ -93,7 +94,7 @@ TEST(WorstCaseFrames, LargestAcceptedCapsStayWithinTheDerivedBound) {
   ASSERT_TRUE(validate(cfg).ok());
   const Work range = run_and_check(cfg, WorstCase::kMaxRange, 3);
   EXPECT_GT(range.rays, 0u);
-  const Work approach = run_and_check(cfg, WorstCase::kApproach, 60);
+  const Work approach = run_and_check(cfg, WorstCase::kApproach, 16);
   EXPECT_GT(approach.path_samples, 0u);
 }
 
