@@ -1,7 +1,18 @@
 // Pipeline::process with fuzzed frames: stamps, poses (raw float bits or normalised), strides,
-// data alignment and pixels of a small camera, several frames per input. Checks the contract:
-// a frame refused with a Status leaves the map, the tracks and the frame counter as they were.
+// data alignment and pixels, several frames per input, with a camera size (1x1 to 40x30), a
+// range, a pixel stride and a local region chosen by the input. Checks the contract: a frame
+// refused with a Status leaves the map, the tracks and the frame counter as they were.
+//
+// Input layout: width-1, height-1 (bytes, taken modulo the maximum), a configuration byte
+// (bits 0-3: max_depth 1..8.5 m; bits 4-5: pixel stride 1..4; bit 6: a 2 m local region
+// instead of the default), then per frame: stamp step (u32), mode (u8), translation (3 f32),
+// quaternion w x y z (4 f32), (width + 4) x (height + 1) pixels (u16). Bytes past the end
+// read as zero. A small camera chosen by the input keeps most inputs cheap (the cost is the
+// rays the map carves), so a campaign reaches millions of inputs, while the full 40x30 frame
+// stays reachable.
+#include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <vector>
@@ -11,19 +22,24 @@
 
 namespace {
 
-constexpr int kWidth = 40;
-constexpr int kHeight = 30;
+constexpr int kMaxWidth = 40;
+constexpr int kMaxHeight = 30;
 constexpr int kFramesPerInput = 4;
 
-dynamap::PipelineConfig fuzz_config() {
+dynamap::PipelineConfig fuzz_config(int width, int height, std::uint8_t bits) {
   dynamap::PipelineConfig c;
-  c.camera.width = kWidth;
-  c.camera.height = kHeight;
-  c.camera.fx = c.camera.fy = 40.f;
-  c.camera.cx = 20.f;
-  c.camera.cy = 15.f;
+  c.camera.width = width;
+  c.camera.height = height;
+  c.camera.fx = c.camera.fy = static_cast<float>(width);  // a 53 x 41 degree field of view
+  c.camera.cx = 0.5f * static_cast<float>(width);
+  c.camera.cy = 0.5f * static_cast<float>(height);
   c.detector.min_segment_length = 2;
   c.detector.min_area = 3;
+  c.map.max_depth = 0.5f * static_cast<float>(2 + (bits & 15u));  // 1 .. 8.5 m
+  c.map.pixel_stride = 1 + static_cast<int>((bits >> 4) & 3u);
+  if ((bits & 64u) != 0) c.map.local_half_extent.setConstant(2.f);
+  // The tracker needs 2 x image_margin < the image size: keep the default where it fits.
+  c.tracker.image_margin = std::min(c.tracker.image_margin, (std::min(width, height) - 1) / 2);
   return c;
 }
 
@@ -37,11 +53,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace dynamap;
   static Pipeline* const pipeline = new Pipeline;  // ~30 MB: once, never on the stack
   static FrameOutput* const out = new FrameOutput;
-  static const PipelineConfig config = fuzz_config();
-  check(ok(pipeline->init(config)));
   fuzz::FuzzInput in(data, size);
+  const int width = 1 + in.take<std::uint8_t>() % kMaxWidth;
+  const int height = 1 + in.take<std::uint8_t>() % kMaxHeight;
+  const PipelineConfig config = fuzz_config(width, height, in.take<std::uint8_t>());
+  ConfigError error;
+  if (!ok(pipeline->init(config, &error))) {  // a fresh pipeline per input: no interactions
+    std::fprintf(stderr, "configuration refused: %s: %s\n", error.field, error.reason);
+    std::abort();
+  }
   // Room for the largest stride below plus one byte of misalignment.
-  std::vector<std::uint16_t> pixels(static_cast<std::size_t>(kWidth + 4) * (kHeight + 1));
+  std::vector<std::uint16_t> pixels(static_cast<std::size_t>(width + 4) * (height + 1));
   Stamp stamp = 0;
   for (int f = 0; f < kFramesPerInput && in.remaining() > 0; ++f) {
     Frame frame;
@@ -59,8 +81,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (auto& p : pixels) p = in.take<std::uint16_t>();
     const std::uint8_t* base = reinterpret_cast<const std::uint8_t*>(pixels.data());
     if ((mode & 32u) != 0) ++base;  // misaligned data
-    frame.depth = DepthView{reinterpret_cast<const std::uint16_t*>(base), kWidth, kHeight,
-                            kWidth * 2 + extra};
+    frame.depth =
+        DepthView{reinterpret_cast<const std::uint16_t*>(base), width, height, width * 2 + extra};
 
     const std::uint64_t sum = pipeline->map().checksum();
     const std::size_t tracks = pipeline->tracker().size();

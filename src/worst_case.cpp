@@ -25,7 +25,7 @@ DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, flo
     }
   }
 
-  if (kind == WorstCase::kClutter && obstacles > 0) {
+  if (kind != WorstCase::kMaxRange && obstacles > 0) {
     // Bars of at least kMinBarPixels with gaps of a third of that.
     const int min_pitch = kMinBarPixels + kMinBarPixels / 3;
     const std::size_t max_bars =
@@ -35,7 +35,9 @@ DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, flo
     const int bar = std::max(kMinBarPixels, pitch * 3 / 4);
     // Odd phases move every bar about 1.8 m deeper: no bar can be associated with a track of
     // the previous frame, so alternating phases fill the tracker.
-    const float base = (phase % 2 == 1) ? 2.9f : 1.1f;
+    // kApproach: every bar comes 3 cm closer per phase (0.9 m/s at 30 Hz) from 4 m to 1.2 m.
+    const float base = kind == WorstCase::kApproach ? 4.0f - 0.03f * static_cast<float>(phase % 94)
+                                                    : ((phase % 2 == 1) ? 2.9f : 1.1f);
     const int v0 = h / 5;
     const int v1 = h - h / 4;
     for (std::size_t b = 0; b < n; ++b) {

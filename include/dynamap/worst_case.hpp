@@ -14,12 +14,15 @@ enum class WorstCase : std::uint8_t {
   kMaxRange,  ///< every pixel valid just inside the maximum range: most rays, longest rays
   kClutter,   ///< `obstacles` narrow bars at alternating depths over a max-range background:
               ///< most detections and tracks, plus long rays everywhere else
+  kApproach,  ///< `obstacles` bars over a max-range background that come 3 cm closer every
+              ///< phase (from 4 m to 1.2 m, then again): tracks that live, move and are
+              ///< predicted, so the predictors do their most work too
 };
 
 /// Fills `pixels` (cam.width x cam.height, tightly packed) with the worst case `kind` and
 /// returns a view of it. `max_depth_m` is the occupancy map's max range; `obstacles` is used by
-/// kClutter (capped so every bar stays at least kMinBarPixels wide, what the default detector
-/// needs to see a bar).
+/// kClutter and kApproach (capped so every bar stays at least kMinBarPixels wide, what the
+/// default detector needs to see a bar); `phase` is the frame index of a sequence.
 inline constexpr int kMinBarPixels = 21;
 DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, float max_depth_m,
                                 std::size_t obstacles, std::uint16_t* pixels,
