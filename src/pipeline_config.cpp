@@ -186,6 +186,43 @@ ConfigError validate(const PipelineConfig& c) noexcept {
               "predictor.depth_check.max_depth", "must be finite and > min_depth");
   }
 
+  {
+    // Far-field layer (far_field_layer.hpp; FarFieldLayer::init checks the same).
+    const FarFieldConfig& f = c.far_field;
+    k.require(std::isfinite(f.cell_size) && f.cell_size >= 0.05f && f.cell_size <= 1.f,
+              "far_field.cell_size", "must be in [0.05, 1] m");
+    k.require(std::isfinite(f.hit_min_range) && f.hit_min_range >= 0.f, "far_field.hit_min_range",
+              "must be finite and >= 0");
+    k.require(std::isfinite(f.max_range) && f.max_range > f.hit_min_range && f.max_range <= 25.f,
+              "far_field.max_range", "must be in (hit_min_range, 25] m");
+    k.require(
+        !(std::isfinite(f.max_range) && std::isfinite(f.cell_size) && f.cell_size > 0.f) ||
+            (f.max_range / f.cell_size <= static_cast<float>(kFarFieldMaxBins) &&
+             2.f * f.max_range / f.cell_size <= static_cast<float>(kFarFieldCellsPerSide) - 2.f),
+        "far_field.max_range",
+        "must be <= (kFarFieldCellsPerSide / 2 - 1) x cell_size (12.6 m at 0.2 m)");
+    k.require(
+        std::isfinite(f.min_height) && std::isfinite(f.max_height) && f.max_height > f.min_height,
+        "far_field.max_height", "must be finite and > min_height");
+    k.require(std::isfinite(f.wall_height) && f.wall_height >= f.min_height &&
+                  f.wall_height <= f.max_height,
+              "far_field.wall_height", "must be in [min_height, max_height]");
+    k.require(std::isfinite(f.noise_margin) && f.noise_margin >= 0.f, "far_field.noise_margin",
+              "must be finite and >= 0");
+    k.require(std::isfinite(f.noise_quadratic) && f.noise_quadratic >= 0.f,
+              "far_field.noise_quadratic", "must be finite and >= 0");
+    k.require(f.pixel_stride >= 1 && f.pixel_stride <= 16, "far_field.pixel_stride",
+              "must be in 1..16");
+    k.require(f.min_pixels >= 1, "far_field.min_pixels", "must be >= 1");
+    k.require(f.hit_evidence >= 1 && f.hit_evidence <= 100, "far_field.hit_evidence",
+              "must be in 1..100");
+    k.require(f.free_evidence >= 0 && f.free_evidence <= 100, "far_field.free_evidence",
+              "must be in 0..100");
+    k.require(f.max_evidence >= f.hit_evidence && f.max_evidence <= 127, "far_field.max_evidence",
+              "must be in hit_evidence..127");
+    k.require(f.memory_frames >= 1, "far_field.memory_frames", "must be >= 1");
+  }
+
   // Work caps of the later stages.
   k.require(
       c.refiner.max_voxels_per_box >= 1 && c.refiner.max_voxels_per_box <= kMaxRefinerVoxelsPerBox,
