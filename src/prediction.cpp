@@ -267,6 +267,9 @@ float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const 
                        float radius, float limit, bool* free) noexcept {
   *free = true;
   const float cell = far.config().cell_size;
+  // A remembered wall lies somewhere in its cell: the half cell is taken off the footprint so
+  // the coarse grid does not inflate walls by a whole cell (on average it is half of one).
+  radius = std::max(0.0f, radius - 0.5f * cell);
   const std::size_t lines =
       radius > 0.0f
           ? std::min<std::size_t>(kMaxClearanceLines,
