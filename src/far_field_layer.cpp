@@ -188,18 +188,56 @@ Status FarFieldLayer::update(const DepthView& depth, const CameraIntrinsics& cam
   const int stride = c.pixel_stride;
   auto sigma = [&c](float d) { return c.noise_margin + c.noise_quadratic * d * d; };
 
+  // The discs' bearings from the camera, once per frame: a column only tests the discs its
+  // bearing passes (usually none), not every disc at every pixel.
+  const float m_max = sigma(c.max_range);
+  std::array<float, kFarFieldMaxExclusions> disc_angle{};
+  std::array<float, kFarFieldMaxExclusions> disc_half{};
+  for (std::size_t k = 0; k < count; ++k) {
+    const Eigen::Vector2f rel = exclusions[k].centre - o2;
+    const float dist = rel.norm();
+    const float reach = std::fabs(exclusions[k].radius) + m_max;
+    disc_angle[k] = std::atan2(rel.y(), rel.x());
+    disc_half[k] = dist <= reach ? 4.0f : std::asin(reach / dist);  // 4 > pi: every column
+  }
+  auto wrap = [](float a) {
+    constexpr float kPi = 3.14159265f;
+    while (a > kPi) a -= 2.0f * kPi;
+    while (a < -kPi) a += 2.0f * kPi;
+    return a;
+  };
+  std::array<std::size_t, kFarFieldMaxExclusions> near_discs{};
+  const Eigen::Vector3f row_step = R.col(1) * inv_fy;
+
   for (int u = stride / 2; u < depth.width; u += stride) {
     std::fill(bin_count_.begin(), bin_count_.begin() + static_cast<std::ptrdiff_t>(bins), 0);
     std::fill(bin_tall_.begin(), bin_tall_.begin() + static_cast<std::ptrdiff_t>(bins), 0);
     for (std::size_t b = 0; b < bins; ++b) bin_sum_[b].setZero();
     const float xn = (static_cast<float>(u) - camera.cx) * inv_fx;
+    // Map-frame ray direction of pixel (u, v) with unit depth: col_dir + (v - cy) * row_step.
+    const Eigen::Vector3f col_dir = R.col(0) * xn + R.col(2);
+    std::size_t n_near = 0;
+    if (count > 0) {
+      const Eigen::Vector3f top = col_dir - camera.cy * row_step;
+      const Eigen::Vector3f bottom =
+          col_dir + (static_cast<float>(depth.height) - camera.cy) * row_step;
+      const float a0 = std::atan2(top.y(), top.x());
+      const float a1 = std::atan2(bottom.y(), bottom.x());
+      const float mid = a0 + 0.5f * wrap(a1 - a0);
+      const float span = 0.5f * std::fabs(wrap(a1 - a0));
+      for (std::size_t k = 0; k < count; ++k) {
+        if (std::fabs(wrap(disc_angle[k] - mid)) <= disc_half[k] + span + 0.01f) {
+          near_discs[n_near++] = k;
+        }
+      }
+    }
     Eigen::Vector2f beyond(std::numeric_limits<float>::quiet_NaN(), 0.0f);
     for (int v = stride / 2; v < depth.height; v += stride) {
       const std::uint16_t raw = depth.at(u, v);
       if (raw == 0) continue;
       const float d = static_cast<float>(raw) * camera.depth_scale;
-      const Eigen::Vector3f pc(xn * d, (static_cast<float>(v) - camera.cy) * inv_fy * d, d);
-      const Eigen::Vector3f p = R * pc + origin;
+      const Eigen::Vector3f p =
+          origin + d * (col_dir + (static_cast<float>(v) - camera.cy) * row_step);
       // Floor and ceiling: the band's edges move in by the depth noise's vertical share, so
       // neither leaks into it.
       const float m = sigma(d);
@@ -209,9 +247,10 @@ Status FarFieldLayer::update(const DepthView& depth, const CameraIntrinsics& cam
       const Eigen::Vector2f q = p.head<2>();
       const float range = (q - o2).norm();
       bool walker = false;
-      for (std::size_t k = 0; k < count && !walker; ++k) {
-        const float r = exclusions[k].radius + m;
-        walker = (q - exclusions[k].centre).squaredNorm() < r * r;
+      for (std::size_t j = 0; j < n_near && !walker; ++j) {
+        const FarFieldExclusion& e = exclusions[near_discs[j]];
+        const float r = e.radius + m;
+        walker = (q - e.centre).squaredNorm() < r * r;
       }
       if (walker) continue;
       if (!(range < c.max_range)) {
