@@ -9,7 +9,10 @@ false dynamic track (> 1 m from every listed obstacle), no library path truly fr
 free in the map, the chosen path free in the map but truly blocked (split by what the map holds
 on the true shape near the hit: unknown / occupied / free; unknown split by the hit's distance
 from the camera and by whether any voxel of that shape's surface was ever seen occupied), and
-the belief choosing a path the map blocks although one was free. Python 3 standard library only.
+the belief choosing a path the map blocks although one was free. Predictions with path -1 (no
+path free in the map and the far-field layer: the evaluator counts them as failures) are split
+first: no library path truly free (walker behaviour), a false far-field wall, or the map.
+Python 3 standard library only.
 """
 import collections
 import csv
@@ -20,7 +23,11 @@ import sys
 ROWS = [
     ("predictions", "predictions"),
     ("on_false_dyn", "... of which on false dynamic tracks"),
-    ("markov_fail", "Markov failing"),
+    ("eval_fail", "Markov failing as the evaluator counts (collides, or path -1)"),
+    ("nopath_behaviour", "path -1, no library path truly free (walker behaviour: U-turn, stop at a wall)"),
+    ("nopath_far", "path -1, one truly free, the far-field layer blocked it (false far wall)"),
+    ("nopath_map", "path -1, one truly free, the map blocked every path (own body, map noise)"),
+    ("markov_fail", "Markov chosen path truly colliding (below: by cause)"),
     ("linear_fail", "linear failing"),
     ("false_dyn", "false dynamic track (every path collides)"),
     ("no_lib_true_free", "no library path truly free"),
@@ -45,6 +52,15 @@ def classify(path):
         c["linear_fail"] += lf
         false_dyn = float(r["gt_dist"]) > 1.0
         c["on_false_dyn"] += false_dyn
+        no_path = int(r["any_map_free"]) == 0
+        c["eval_fail"] += mf or no_path
+        if no_path:
+            if int(r["true_free_mask"]) == 0:
+                c["nopath_behaviour"] += 1
+            elif int(r.get("far_mask", "0") or 0) != 0:
+                c["nopath_far"] += 1
+            else:
+                c["nopath_map"] += 1
         if not mf:
             continue
         chosen = int(r["chosen"])
@@ -77,7 +93,9 @@ def main(paths):
     print("|---|" + "---|" * len(names))
     for key, label in ROWS:
         print("| " + label + " | " + " | ".join(str(r[key]) for r in results) + " |")
-    for key, label in (("markov_fail", "Markov ratio"), ("linear_fail", "linear ratio")):
+    for key, label in (("eval_fail", "Markov ratio (evaluator's rule)"),
+                       ("markov_fail", "Markov ratio (chosen path collides)"),
+                       ("linear_fail", "linear ratio (straight path collides)")):
         print("| " + label + " | " + " | ".join(
             "%.3f" % (r[key] / max(1, r["predictions"])) for r in results) + " |")
 
