@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "dynamap/far_field_layer.hpp"
 #include "dynamap/linear_predictor.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"
@@ -31,6 +32,9 @@ struct Scene {
   std::size_t occupied_voxels = 0;
   std::vector<std::uint16_t> pixels;  // depth frame of the static boxes
   DepthEvidence depth{};
+  CameraIntrinsics camera{};
+  Pose pose{};
+  std::unique_ptr<FarFieldLayer> far = std::make_unique<FarFieldLayer>();  // fed that frame
 };
 
 void fill_box(OccupancyMap& map, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
@@ -89,6 +93,12 @@ const Scene& scene() {
     cam.cy = 240.0f;
     const Pose pose = dynamap::test::level_camera(Eigen::Vector3f(-5.9f, 0.0f, 1.3f));
     sc->depth = DepthEvidence::of(dynamap::test::render(world, cam, pose, sc->pixels), cam, pose);
+    sc->camera = cam;
+    sc->pose = pose;
+    if (!ok(sc->far->init(FarFieldConfig{}, 0.0f))) std::abort();
+    for (int f = 0; f < 3; ++f) {
+      if (!ok(sc->far->update(sc->depth.depth, cam, pose, nullptr, 0))) std::abort();
+    }
     // Walkers: straight lines at their speed, turning slightly every frame.
     for (std::size_t k = 0; k < kObstacles; ++k) {
       Eigen::Vector2f p(pos(rng) * 0.5f, pos(rng) * 0.5f);  // stay inside the room
@@ -133,30 +143,31 @@ struct CountingMap {
 
 // The linear baseline is map-only (docs/predictor.md): the frame is for the Markov predictor.
 Status run(MarkovPredictor& p, const ObstacleState* o, const OccupancyQuery& q,
-           const DepthEvidence* depth, PathPrediction* out) {
-  return p.predict(o, kObstacles, q, depth, out);
+           const DepthEvidence* depth, const FarFieldLayer* far, PathPrediction* out) {
+  return p.predict(o, kObstacles, q, depth, far, out);
 }
 Status run(LinearPredictor& p, const ObstacleState* o, const OccupancyQuery& q,
-           const DepthEvidence*, PathPrediction* out) {
+           const DepthEvidence*, const FarFieldLayer*, PathPrediction* out) {
   return p.predict(o, kObstacles, q, out);
 }
 
 template <class Predictor>
 void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto,
-                const DepthEvidence* depth = nullptr) {
+                const DepthEvidence* depth = nullptr, const FarFieldLayer* far = nullptr) {
   auto p = std::make_unique<Predictor>(proto);
   CountingMap counting{sc.map.get()};
   const OccupancyQuery q = OccupancyQuery::of(counting);
   std::array<PathPrediction, kObstacles> out{};
   for (std::size_t f = 0; f < kFrames; ++f) {
-    if (!ok(run(*p, sc.frames[f].data(), q, depth, out.data()))) std::abort();
+    if (!ok(run(*p, sc.frames[f].data(), q, depth, far, out.data()))) std::abort();
   }
   state.counters["queries/frame"] = counting.queries / kFrames;
   state.counters["voxels/frame"] = counting.voxel_lengths / kFrames;  // ~DDA steps (L1 length)
 }
 
 // Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7),
-// unknown_weight in percent (100 = default, no second sweep), depth check (0 off = default, 1 on).
+// unknown_weight in percent (100 = default, no second sweep), depth check (0 off = default, 1 on),
+// far-field layer lookups (1 = default, 0 off; the layer's update is BM_FarFieldUpdate).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
   MarkovPredictorConfig cfg;
@@ -165,19 +176,20 @@ void BM_MarkovPredictor(benchmark::State& state) {
   cfg.unknown_weight = static_cast<float>(state.range(2)) / 100.0f;
   cfg.depth_check.enabled = state.range(3) != 0;
   const DepthEvidence* depth = cfg.depth_check.enabled ? &sc.depth : nullptr;
+  const FarFieldLayer* far = state.range(4) != 0 ? sc.far.get() : nullptr;
   auto mp = std::make_unique<MarkovPredictor>();
   if (!ok(mp->init(cfg))) {
     state.SkipWithError("init failed");
     return;
   }
-  count_work(state, sc, *mp, depth);
+  count_work(state, sc, *mp, depth, far);
   const OccupancyQuery q = OccupancyQuery::of(*sc.map);
   std::array<PathPrediction, kObstacles> out{};
   std::size_t f = 0;
   std::size_t failed = 0;
   std::size_t predictions = 0;
   for (auto _ : state) {
-    const Status s = mp->predict(sc.frames[f].data(), kObstacles, q, depth, out.data());
+    const Status s = mp->predict(sc.frames[f].data(), kObstacles, q, depth, far, out.data());
     benchmark::DoNotOptimize(s);
     benchmark::DoNotOptimize(out.data());
     for (const PathPrediction& p : out) failed += p.failed ? 1 : 0;
@@ -190,15 +202,43 @@ void BM_MarkovPredictor(benchmark::State& state) {
   state.counters["occupied_voxels"] = static_cast<double>(sc.occupied_voxels);
 }
 BENCHMARK(BM_MarkovPredictor)
-    ->ArgNames({"l", "max_lines", "unknown_pct", "depth"})
-    ->Args({5, 9, 100, 0})
-    ->Args({15, 9, 100, 0})
-    ->Args({5, 3, 100, 0})
-    ->Args({15, 3, 100, 0})
-    ->Args({5, 9, 90, 0})
-    ->Args({5, 9, 100, 1})
-    ->Args({15, 9, 100, 1})
-    ->Args({5, 3, 100, 1})
+    ->ArgNames({"l", "max_lines", "unknown_pct", "depth", "far"})
+    ->Args({5, 9, 100, 0, 1})
+    ->Args({5, 9, 100, 0, 0})
+    ->Args({15, 9, 100, 0, 1})
+    ->Args({5, 3, 100, 0, 1})
+    ->Args({15, 3, 100, 0, 1})
+    ->Args({5, 9, 90, 0, 1})
+    ->Args({5, 9, 100, 1, 1})
+    ->Args({15, 9, 100, 1, 1})
+    ->Args({5, 3, 100, 1, 1})
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true)
+    ->Unit(benchmark::kMicrosecond);
+
+// The far-field layer's update (its own pipeline stage): the room frame, 640 x 480, with the 10
+// walkers' discs excluded.
+void BM_FarFieldUpdate(benchmark::State& state) {
+  const Scene& sc = scene();
+  auto layer = std::make_unique<FarFieldLayer>();
+  if (!ok(layer->init(FarFieldConfig{}, 0.0f))) {
+    state.SkipWithError("init failed");
+    return;
+  }
+  std::array<FarFieldExclusion, kObstacles> discs{};
+  for (std::size_t k = 0; k < kObstacles; ++k) {
+    discs[k].centre = sc.frames[0][k].position.head<2>();
+    discs[k].radius = 0.45f;
+  }
+  for (auto _ : state) {
+    const Status s = layer->update(sc.depth.depth, sc.camera, sc.pose, discs.data(), kObstacles);
+    benchmark::DoNotOptimize(s);
+  }
+  state.counters["hits/frame"] = static_cast<double>(layer->last_hits());
+}
+BENCHMARK(BM_FarFieldUpdate)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true)
     ->Unit(benchmark::kMicrosecond);
 
 void BM_LinearPredictor(benchmark::State& state) {
@@ -225,7 +265,10 @@ void BM_LinearPredictor(benchmark::State& state) {
   state.counters["fail_ratio"] =
       predictions > 0 ? static_cast<double>(failed) / static_cast<double>(predictions) : 0.0;
 }
-BENCHMARK(BM_LinearPredictor)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LinearPredictor)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true)
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -99,7 +99,7 @@ bool MarkovPredictor::belief(std::uint32_t track_id, Belief* out) const noexcept
 
 Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t count,
                                 const OccupancyQuery& map, const DepthEvidence* depth,
-                                PathPrediction* out) noexcept {
+                                const FarFieldLayer* far_field, PathPrediction* out) noexcept {
   if (!initialised_) return Status::kNotInitialized;
   // Validate everything before touching any state.
   const Status bad = validate_prediction_call(obstacles, count, map, depth, out);
@@ -125,14 +125,15 @@ Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t coun
   sweep.config = config_.depth_check;
   sweep.obstacles = obstacles;
   sweep.count = count;
-  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, sweep, &out[k]);
+  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, sweep, far_field, &out[k]);
   return Status::kOk;
 }
 
 void MarkovPredictor::predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
-                                  const DepthSweep& depth, PathPrediction* out) noexcept {
+                                  const DepthSweep& depth, const FarFieldLayer* far_field,
+                                  PathPrediction* out) noexcept {
   const std::size_t l = library_.size();
-  const Belief env = sweep_paths(obstacle, map, depth, out);
+  const Belief env = sweep_paths(obstacle, map, depth, far_field, out);
   const Belief post = update_belief(obstacle.track_id, env);
   const std::size_t best = choose_path(post, *out);
   for (std::size_t i = 0; i < kMaxPaths; ++i) {
@@ -150,6 +151,7 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
 MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstacle,
                                                      const OccupancyQuery& map,
                                                      const DepthSweep& depth,
+                                                     const FarFieldLayer* far_field,
                                                      PathPrediction* out) noexcept {
   const std::size_t l = library_.size();
   const Eigen::Vector2f origin = obstacle.position.head<2>();
@@ -157,6 +159,7 @@ MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstac
   out->num_paths = l;
   out->free_mask = 0;
   out->depth_blocked_mask = 0;
+  out->far_blocked_mask = 0;
   out->any_free = false;
   const bool observed = config_.unknown_weight < 1.0f;
   const float w = config_.unknown_weight;
@@ -165,10 +168,11 @@ MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstac
   for (std::size_t i = 0; i < l; ++i) {
     library_.sample(i, origin, obstacle.velocity, &paths_[i]);
     const PathClearance c =
-        sweep_path(map, paths_[i], obstacle, config_.clearance, observed, depth);
+        sweep_path(map, paths_[i], obstacle, config_.clearance, observed, depth, far_field);
     out->free_distance[i] = c.free_distance;
     out->observed_distance[i] = c.observed_distance;
     if (c.depth_blocked) out->depth_blocked_mask |= 1u << i;
+    if (c.far_blocked) out->far_blocked_mask |= 1u << i;
     if (c.free) {
       out->free_mask |= 1u << i;
       out->any_free = true;
@@ -247,7 +251,19 @@ std::size_t MarkovPredictor::choose_path(const Belief& post,
         tie && off_i == off_best && out.observed_distance[i] > out.observed_distance[best];
     if (better || tie_nearer || tie_seen) best = i;
   }
-  return best == l ? 0 : best;  // l >= 1: best == l only if no path was considered (cannot be)
+  if (best == l) return 0;  // l >= 1: best == l only if no path was considered (cannot be)
+  // Never prefer a worse bet: straight when it is free and no path is better supported.
+  const std::size_t straight = (l - 1) / 2;  // the straight path when l is odd
+  if (config_.straight_when_free && l % 2 == 1 && out.path_free(straight) &&
+      support(out, straight) >= support(out, best)) {
+    return straight;
+  }
+  return best;
+}
+
+float MarkovPredictor::support(const PathPrediction& out, std::size_t i) const noexcept {
+  const float w = config_.unknown_weight;
+  return out.observed_distance[i] + w * (out.free_distance[i] - out.observed_distance[i]);
 }
 
 }  // namespace dynamap

@@ -201,6 +201,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(predictor.beta), X, "1/m", 0, kInf, kClosed, kOpen, "P_env = softmax(beta x free distance); 0 ignores the map"},
     {DYNAMAP_FIELD(predictor.unknown_weight), X, "", 0, 1, kClosed, kClosed, "weight of never-observed space in the free distance"},
     {DYNAMAP_FIELD(predictor.choose_free), X, "", 0, 1, kClosed, kClosed, "output the likeliest path that is free in the map"},
+    {DYNAMAP_FIELD(predictor.straight_when_free), X, "", 0, 1, kClosed, kClosed, "output the straight path whenever it is free and no path is better supported"},
     {DYNAMAP_FIELD(predictor.belief_update), X, "", 0, 1, kClosed, kClosed, "compound (docs/design.md) or choice_only", kBeliefUpdates, 2},
     // Predictor: depth-image check.
     {DYNAMAP_FIELD(predictor.depth_check.enabled), X, "", 0, 1, kClosed, kClosed, "also check paths against the current depth image"},
@@ -209,6 +210,22 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(predictor.depth_check.surface_thickness), X, "m", 0, kInf, kClosed, kOpen, "space behind a measured surface that counts as inside"},
     {DYNAMAP_FIELD(predictor.depth_check.min_depth), X, "m", 0, kInf, kOpen, kOpen, "nearer pixels are not used"},
     {DYNAMAP_FIELD(predictor.depth_check.max_depth), X, "m", 0, kInf, kOpen, kOpen, "farther pixels are not used"},
+    // Far-field layer (the predictor's memory of walls beyond the map's range).
+    {DYNAMAP_FIELD(far_field.enabled), X, "", 0, 1, kClosed, kClosed, "update the far-field layer and let the predictor use it"},
+    {DYNAMAP_FIELD(far_field.cell_size), X, "m", 0.05, 1, kClosed, kClosed, "grid cell and range bin"},
+    {DYNAMAP_FIELD(far_field.max_range), U, "m", 0, 25, kOpen, kClosed, "horizontal range of the pixels used (the camera's useful range)"},
+    {DYNAMAP_FIELD(far_field.hit_min_range), X, "m", 0, kInf, kClosed, kOpen, "nearer surfaces are the map's"},
+    {DYNAMAP_FIELD(far_field.min_height), X, "m", -kInf, kInf, kOpen, kOpen, "above ground_height: lower pixels are floor"},
+    {DYNAMAP_FIELD(far_field.max_height), X, "m", -kInf, kInf, kOpen, kOpen, "above ground_height: higher pixels are ceiling"},
+    {DYNAMAP_FIELD(far_field.wall_height), X, "m", -kInf, kInf, kOpen, kOpen, "above ground_height a surface must reach to be a wall"},
+    {DYNAMAP_FIELD(far_field.noise_margin), X, "m", 0, kInf, kClosed, kOpen, "constant part of the range noise sigma(d)"},
+    {DYNAMAP_FIELD(far_field.noise_quadratic), X, "1/m", 0, kInf, kClosed, kOpen, "quadratic part of the range noise sigma(d)"},
+    {DYNAMAP_FIELD(far_field.pixel_stride), C, "px", 1, 16, kClosed, kClosed, "sampled columns and rows"},
+    {DYNAMAP_FIELD(far_field.min_pixels), X, "px", 1, kInf, kClosed, kOpen, "pixels in a column's noise window to accept a surface"},
+    {DYNAMAP_FIELD(far_field.hit_evidence), X, "", 1, 100, kClosed, kClosed, "added per frame a cell is hit"},
+    {DYNAMAP_FIELD(far_field.free_evidence), X, "", 0, 100, kClosed, kClosed, "removed per frame a ray passes a cell"},
+    {DYNAMAP_FIELD(far_field.max_evidence), X, "", 1, 127, kClosed, kClosed, "evidence clamp"},
+    {DYNAMAP_FIELD(far_field.memory_frames), X, "frames", 1, kInf, kClosed, kOpen, "a wall is forgotten this many frames after its last hit"},
     {DYNAMAP_FIELD(run_linear_baseline), X, "", 0, 1, kClosed, kClosed, "also run the constant-velocity predictor (the evaluation's yardstick)"},
     // Budgets.
     {DYNAMAP_FIELD(budgets.frame_ns), U, "ns", 0, kInf, kClosed, kOpen, "whole-frame time budget (0: none)"},
@@ -218,6 +235,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_NAMED_FIELD("budgets.stage_ns.tracking", budgets.stage_ns[3]), U, "ns", 0, kInf, kClosed, kOpen, "tracking stage budget (0: none)"},
     {DYNAMAP_NAMED_FIELD("budgets.stage_ns.cleaning", budgets.stage_ns[4]), U, "ns", 0, kInf, kClosed, kOpen, "cleaning stage budget (0: none)"},
     {DYNAMAP_NAMED_FIELD("budgets.stage_ns.prediction", budgets.stage_ns[5]), U, "ns", 0, kInf, kClosed, kOpen, "prediction stage budget (0: none)"},
+    {DYNAMAP_NAMED_FIELD("budgets.stage_ns.far_field", budgets.stage_ns[6]), U, "ns", 0, kInf, kClosed, kOpen, "far-field layer stage budget (0: none)"},
     {DYNAMAP_FIELD(budgets.adaptive_stride), U, "", 0, 1, kClosed, kClosed, "coarsen the map's pixel stride when the occupancy stage overruns"},
     {DYNAMAP_FIELD(budgets.max_pixel_stride), C, "px", 1, kMaxImageWidth, kClosed, kClosed, "coarsest stride the adaptive mode may use"},
     {DYNAMAP_FIELD(budgets.restore_fraction), X, "", 0, 1, kOpen, kOpen, "restore a finer stride below this share of the budget"},
@@ -246,6 +264,7 @@ constexpr bool paths_unique() noexcept {
   return true;
 }
 static_assert(paths_unique(), "every parameter path appears once in the table");
+static_assert(kStageCount == 7, "every stage has a budgets.stage_ns.<stage> row in the table");
 
 // "12", "0.01", "1e+06": short, exact enough for a range.
 int print_number(char* buf, std::size_t size, double v) noexcept {

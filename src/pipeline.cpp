@@ -48,6 +48,7 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
   if (ok(s)) s = cleaner_.init(config.cleaner, floor_top);
   if (ok(s)) s = markov_.init(config.predictor);
+  if (ok(s)) s = far_field_.init(config.far_field, config.ground_height);
   if (ok(s)) {
     LinearPredictorConfig lc;
     lc.paths = config.predictor.paths;
@@ -163,18 +164,37 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   work.dynamic_tracks = cleaner_.last_stats().dynamic_tracks;
   lap(Stage::kCleaning);
 
-  // 6. Prediction for dynamic tracks.
+  // 6. Prediction for dynamic tracks, after the far-field layer has taken this frame's far
+  // pixels (walkers' pixels are not walls).
   std::size_t n_dyn = 0;
   for (std::size_t i = 0; i < tracker_.size(); ++i) {
     const TrackedObstacle& o = tracker_.obstacle(i);
     if (!o.dynamic) continue;
     predictor_input_[n_dyn++] = predictor_input(o);
   }
+  const FarFieldLayer* far = nullptr;
+  if (config_.far_field.enabled) {
+    // The dynamic tracks' pixels are not walls. Walkers not (yet) labelled dynamic are kept
+    // out by the layer's wall_height; static tracks are often pieces of a wall, and cutting
+    // their pixels out would leave the wall's near noise tail as a ghost wall in front of it.
+    const std::size_t n_ex = std::min(n_dyn, kFarFieldMaxExclusions);
+    for (std::size_t k = 0; k < n_ex; ++k) {
+      far_exclusions_[k].centre = predictor_input_[k].position.head<2>();
+      far_exclusions_[k].radius =
+          predictor_input_[k].footprint_radius + config_.predictor.clearance.self_margin;
+    }
+    if (ok(far_field_.update(frame.depth, config_.camera, frame.T_map_camera,
+                             far_exclusions_.data(), n_ex))) {
+      far = &far_field_;
+    }
+  }
+  lap(Stage::kFarField);
   const OccupancyQuery query = OccupancyQuery::of(map_);
   // The frame's pixels are read in place: the caller keeps them alive for the whole call.
   const DepthEvidence evidence = DepthEvidence::of(frame.depth, config_.camera, frame.T_map_camera);
   const DepthEvidence* depth = config_.predictor.depth_check.enabled ? &evidence : nullptr;
-  if (!ok(markov_.predict(predictor_input_.data(), n_dyn, query, depth, out.predictions.data()))) {
+  if (!ok(markov_.predict(predictor_input_.data(), n_dyn, query, depth, far,
+                          out.predictions.data()))) {
     n_dyn = 0;
   }
   if (config_.run_linear_baseline && n_dyn > 0) {
@@ -244,6 +264,8 @@ const char* to_string(Stage s) noexcept {
       return "cleaning";
     case Stage::kPrediction:
       return "prediction";
+    case Stage::kFarField:
+      return "far_field";
   }
   return "unknown";
 }

@@ -120,6 +120,23 @@ void check_tracker_relations(const PipelineConfig& c, Checker& k) noexcept {
             "must be > predictor.depth_check.min_depth");
 }
 
+// Relations between fields of the far-field layer (far_field_layer.hpp).
+void check_far_field_relations(const PipelineConfig& c, Checker& k) noexcept {
+  const FarFieldConfig& f = c.far_field;
+  k.require(f.max_range > f.hit_min_range, "far_field.max_range",
+            "must be > far_field.hit_min_range");
+  k.require(f.max_range / f.cell_size <= static_cast<float>(kFarFieldMaxBins) &&
+                2.f * f.max_range / f.cell_size <= static_cast<float>(kFarFieldCellsPerSide) - 2.f,
+            "far_field.max_range",
+            "must be <= (kFarFieldCellsPerSide / 2 - 1) x far_field.cell_size (12.6 m at 0.2 m)");
+  k.require(f.max_height > f.min_height, "far_field.max_height",
+            "must be > far_field.min_height");
+  k.require(f.wall_height >= f.min_height && f.wall_height <= f.max_height,
+            "far_field.wall_height", "must be in [far_field.min_height, far_field.max_height]");
+  k.require(f.max_evidence >= f.hit_evidence, "far_field.max_evidence",
+            "must be >= far_field.hit_evidence");
+}
+
 // The derived worst case of the whole frame (only once every field is in range).
 void check_worst_case(const PipelineConfig& c, Checker& k) noexcept {
   const WorstCaseWork w = worst_case_work(c);
@@ -142,6 +159,7 @@ ConfigError validate(const PipelineConfig& c) noexcept {
   Checker k;
   check_map_relations(c, k);
   check_tracker_relations(c, k);
+  check_far_field_relations(c, k);
   if (!k.failed()) check_worst_case(c, k);
   return k.error;
 }

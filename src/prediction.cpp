@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamap/far_field_layer.hpp"
+
 namespace dynamap {
 
 Status validate(const ClearanceConfig& c) noexcept {
@@ -258,11 +260,45 @@ float depth_hit_distance(const DepthSweep& sw, const PathSamples& path, const Sw
   }
   return limit;
 }
+/// Arc length along `path`, up to `limit`, before a point of the footprint at a sample lies in a
+/// remembered wall cell of the far-field layer; `limit` and *free = true when none does. The
+/// lines are at most one cell apart, so no cell slips between them.
+float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const SweepGeometry& g,
+                       float radius, float limit, bool* free) noexcept {
+  *free = true;
+  const float cell = far.config().cell_size;
+  // A remembered wall lies somewhere in its cell: the half cell is taken off the footprint so
+  // the coarse grid does not inflate walls by a whole cell (on average it is half of one).
+  radius = std::max(0.0f, radius - 0.5f * cell);
+  const std::size_t lines =
+      radius > 0.0f
+          ? std::min<std::size_t>(kMaxClearanceLines,
+                                  static_cast<std::size_t>(std::ceil(2.0f * radius / cell)) + 1)
+          : 1;
+  const std::size_t n = std::min(path.count, kMaxPathSamples);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (path.arc_length[k] > limit) break;
+    const Eigen::Vector2f normal(-path.tangent[k].y(), path.tangent[k].x());
+    for (std::size_t j = 0; j < lines; ++j) {
+      const float off = lines == 1 ? 0.0f
+                                   : -radius + 2.0f * radius * static_cast<float>(j) /
+                                                   static_cast<float>(lines - 1);
+      const Eigen::Vector2f p2 = path.position[k] + off * normal;
+      if (g.self_r > 0.0f && (p2 - g.self_centre).squaredNorm() < g.self_r2) continue;
+      if (far.occupied(p2)) {
+        *free = false;
+        return path.arc_length[k];
+      }
+    }
+  }
+  return limit;
+}
 }  // namespace
 
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance,
-                         bool observed, const DepthSweep& depth) noexcept {
+                         bool observed, const DepthSweep& depth,
+                         const FarFieldLayer* far_field) noexcept {
   const SweepGeometry g = sweep_geometry(obstacle, clearance);
   PathClearance result;
   result.free_distance =
@@ -289,6 +325,17 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                                        result.free_distance, &depth_free);
     if (!depth_free) {
       result.depth_blocked = result.free || d < result.free_distance;
+      result.free = false;
+      result.free_distance = std::min(result.free_distance, d);
+      result.observed_distance = std::min(result.observed_distance, result.free_distance);
+    }
+  }
+  if (far_field != nullptr && far_field->initialised() && far_field->config().enabled) {
+    bool far_free = true;
+    const float d = far_hit_distance(*far_field, path, g, obstacle.footprint_radius,
+                                     result.free_distance, &far_free);
+    if (!far_free) {
+      result.far_blocked = result.free || d < result.free_distance;
       result.free = false;
       result.free_distance = std::min(result.free_distance, d);
       result.observed_distance = std::min(result.observed_distance, result.free_distance);

@@ -375,9 +375,12 @@ TEST(Pipeline, SameSequenceGivesBitIdenticalOutputs) {
 TEST(Pipeline, DepthCheckSeesTheWallBeyondTheMapRange) {
   PipelineConfig cfg = small_camera_config();
   cfg.map.max_depth = 3.5f;
-  std::array<PathPrediction, 2> last{};
-  for (int enabled = 0; enabled < 2; ++enabled) {
-    cfg.predictor.depth_check.enabled = enabled != 0;
+  std::array<PathPrediction, 3> last{};
+  // 0: map only, 1: the depth check, 2: the far-field layer (its near limit at the map's range).
+  for (int enabled = 0; enabled < 3; ++enabled) {
+    cfg.predictor.depth_check.enabled = enabled == 1;
+    cfg.far_field.enabled = enabled == 2;
+    cfg.far_field.hit_min_range = 3.5f;
     auto p = std::make_unique<Pipeline>();
     auto out = std::make_unique<FrameOutput>();
     ASSERT_EQ(p->init(cfg), Status::kOk);
@@ -415,6 +418,13 @@ TEST(Pipeline, DepthCheckSeesTheWallBeyondTheMapRange) {
   EXPECT_TRUE(with_depth.depth_blocked_mask & (1u << 4));
   EXPECT_TRUE(with_depth.path_free(2));  // straight on, parallel to the wall
   EXPECT_TRUE(with_depth.path_free(with_depth.chosen));
+  // The far-field layer (its own stage, covered by the zero-allocation check above) blocks the
+  // same turn, and not the straight path.
+  const PathPrediction& with_far = last[2];
+  EXPECT_FALSE(with_far.path_free(4));
+  EXPECT_TRUE(with_far.far_blocked_mask & (1u << 4));
+  EXPECT_TRUE(with_far.path_free(2));
+  EXPECT_EQ(with_far.chosen, 2u);
 
   std::vector<float> a, b;
   const std::uint64_t ca = run_walker_trace(cfg, a, 60);
@@ -452,7 +462,7 @@ TEST(PipelineBudget, OverrunsAreCountedPerStageAndPerFrame) {
   PipelineConfig cfg = small_camera_config();
   cfg.budgets.stage_ns[static_cast<std::size_t>(Stage::kOccupancy)] = 500;  // < the 1000 step
   cfg.budgets.stage_ns[static_cast<std::size_t>(Stage::kTracking)] = 5000;  // > the step
-  cfg.budgets.frame_ns = 5000;  // 6 stages x 1000 ns = 6000 > 5000
+  cfg.budgets.frame_ns = 5000;  // kStageCount (7) stages x 1000 ns = 7000 > 5000
   ASSERT_EQ(p->init(cfg), Status::kOk);
   g_fake_now = 0;
   g_fake_step = 1000;
@@ -462,7 +472,7 @@ TEST(PipelineBudget, OverrunsAreCountedPerStageAndPerFrame) {
   EXPECT_EQ(p->stage_stats(Stage::kOccupancy).overruns(), 10u);
   EXPECT_EQ(p->stage_stats(Stage::kTracking).overruns(), 0u);
   EXPECT_EQ(p->stage_stats(Stage::kOccupancy).p50_ns(), 1000u);
-  EXPECT_EQ(out->total_ns, 6000u);
+  EXPECT_EQ(out->total_ns, 1000u * kStageCount);
   EXPECT_EQ(p->counters().budget_overruns, 10u);
   EXPECT_EQ(p->counters().stage_overruns, 10u);
 }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "alloc_guard.hpp"
+#include "dynamap/far_field_layer.hpp"
 #include "dynamap/fixed_vector.hpp"
 #include "dynamap/linear_predictor.hpp"
 #include "dynamap/markov_predictor.hpp"
@@ -127,7 +128,14 @@ void expect_valid_distribution(const PathPrediction& p) {
     EXPECT_TRUE(p.path_free(p.chosen));
   }
   EXPECT_EQ(p.failed, !p.path_free(p.chosen));
-  for (std::size_t i = 0; i < p.num_paths; ++i) {
+  // Default straight_when_free: the straight path whenever it is free (no path can be better
+  // supported than a free one at unknown_weight 1); otherwise the most likely (free) path.
+  const bool straight_rule =
+      p.num_paths % 2 == 1 && p.chosen == p.num_paths / 2 && p.path_free(p.chosen);
+  if (p.num_paths % 2 == 1 && p.path_free(p.num_paths / 2)) {
+    EXPECT_TRUE(straight_rule);
+  }
+  for (std::size_t i = 0; i < p.num_paths && !straight_rule; ++i) {
     if (p.any_free && !p.path_free(i)) continue;
     EXPECT_LE(p.probability[i], p.probability[p.chosen]);
   }
@@ -701,11 +709,13 @@ TEST(MarkovPredictor, FootprintClearanceCountsNearMisses) {
 // A walker walks straight along +x, 0.8 m left of a long wall on its right (y = -0.8): the
 // straight path and both left turns are free for the whole horizon, the two right turns meet
 // the wall. Returns the path chosen in each of `frames` frames.
-std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames) {
+std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames,
+                                               bool straight_when_free = false) {
   BoxWorld w;
   w.add_box(wall(-5.0f, -0.9f, 60.0f, -0.8f));
   MarkovPredictorConfig c = markov_config(5);
   c.belief_update = mode;
+  c.straight_when_free = straight_when_free;
   MarkovPredictor mp;
   EXPECT_EQ(mp.init(c), Status::kOk);
   std::vector<std::size_t> chosen;
@@ -714,7 +724,7 @@ std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames) {
     const ObstacleState o = walker(4, 0.05f * static_cast<float>(f), 0.0f, 1.5f, 0.0f);
     EXPECT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
     EXPECT_EQ(out.free_mask, 0x07u) << "frame " << f;  // paths 0, 1, 2 free; 3, 4 blocked
-    expect_valid_distribution(out);
+    if (straight_when_free) expect_valid_distribution(out);
     chosen.push_back(out.chosen);
   }
   return chosen;
@@ -728,6 +738,13 @@ TEST(MarkovPredictor, CompoundingBeliefDriftsOffTheStraightPathAlongAWall) {
   const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kCompound, 60);
   EXPECT_EQ(chosen.front(), 2u);
   EXPECT_LT(chosen.back(), 2u);
+}
+
+TEST(MarkovPredictor, StraightWhenFreeKeepsTheStraightPathAlongAWallDespiteTheDrift) {
+  // The default choice rule: the belief still drifts (the previous test), but the straight path
+  // is free and no turn is better supported, so the output never turns into the unseen.
+  const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kCompound, 60, true);
+  for (std::size_t f = 0; f < chosen.size(); ++f) EXPECT_EQ(chosen[f], 2u) << "frame " << f;
 }
 
 TEST(MarkovPredictor, NonCompoundingBeliefKeepsTheStraightPathAlongAWall) {
@@ -1256,6 +1273,130 @@ TEST(MarkovPredictorDepth, ZeroAllocationsAndRepeatableWithAFrame) {
                           sizeof(float) * kMaxPaths),
               0);
   }
+}
+
+}  // namespace
+}  // namespace dynamap
+
+// ---------------------------------------------------------------------------------------------
+// Issue 16: the far-field layer's memory and the straight-when-free choice.
+
+namespace dynamap {
+namespace {
+
+CameraIntrinsics far_camera() {
+  CameraIntrinsics c;
+  c.fx = 385.0f;
+  c.fy = 385.0f;
+  c.cx = 320.0f;
+  c.cy = 240.0f;
+  return c;
+}
+
+TEST(MarkovPredictorFarField, CorridorEndWallSeenOnlyEarlierMakesTheChoiceTurnBeforeIt) {
+  // The end wall of a corridor 7 m from the camera, beyond the map's range: seen in one frame,
+  // then 10 frames looking back the other way. The map holds nothing. A walker at x = 5 walks
+  // towards the wall at 1 m/s: the Markov choice turns before it, the linear line walks into it.
+  const CameraIntrinsics cam = far_camera();
+  auto layer = std::make_unique<FarFieldLayer>();
+  ASSERT_EQ(layer->init(FarFieldConfig{}, 0.0f), Status::kOk);
+  test::WorldScene scene;
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(7.0f, -1.6f, 0.0f), Eigen::Vector3f(7.2f, 1.6f, 2.5f)});
+  std::vector<std::uint16_t> pixels;
+  const Pose ahead = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), 0.0f);
+  const Pose back = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), kPiF);
+  DepthView view = test::render(scene, cam, ahead, pixels);
+  ASSERT_EQ(layer->update(view, cam, ahead, nullptr, 0), Status::kOk);
+  view = test::render(scene, cam, back, pixels);  // the wall is behind the camera now
+  for (int f = 0; f < 10; ++f) ASSERT_EQ(layer->update(view, cam, back, nullptr, 0), Status::kOk);
+
+  BoxWorld empty;
+  const ObstacleState o = walker(3, 5.0f, 0.0f, 1.0f, 0.0f);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+  PathPrediction out;
+  ASSERT_EQ(mp.predict(&o, 1, empty.query(), nullptr, layer.get(), &out), Status::kOk);
+  EXPECT_FALSE(out.path_free(2));  // straight: into the remembered wall
+  EXPECT_NE(out.far_blocked_mask & (1u << 2), 0u);
+  ASSERT_TRUE(out.any_free);
+  EXPECT_NE(out.chosen, 2u);
+  EXPECT_FALSE(out.failed);
+  for (std::size_t k = 0; k < out.num_samples; ++k) {
+    EXPECT_LT(out.position[k].x(), 7.0f - o.footprint_radius) << k;
+  }
+  // Without the layer the choice is the straight path into the wall (the test can fail).
+  MarkovPredictor blind;
+  ASSERT_EQ(blind.init(markov_config(5)), Status::kOk);
+  ASSERT_EQ(blind.predict(&o, 1, empty.query(), &out), Status::kOk);
+  EXPECT_EQ(out.chosen, 2u);
+  // The linear baseline (map only, as the yardstick) walks through the wall.
+  LinearPredictor lin;
+  ASSERT_EQ(lin.init(LinearPredictorConfig{}), Status::kOk);
+  PathPrediction line;
+  ASSERT_EQ(lin.predict(&o, 1, empty.query(), &line), Status::kOk);
+  EXPECT_FALSE(line.failed);
+  EXPECT_GT(line.position[line.num_samples - 1].x(), 7.2f);
+}
+
+TEST(MarkovPredictorFarField, WalkerPassingABoxCornerWithItsStraightPathFreeGoesStraight) {
+  // 10 frames with a wall ahead and on the left push the belief onto the right turns; then the
+  // wall is gone and only a box's corner is left on the left, clear of the straight path (0.45 m
+  // from its centre line, footprint 0.3 m) but in the way of the left turns. The compounded
+  // belief still favours a turn; the choice must be the straight path.
+  BoxWorld before;
+  before.add_box(wall(1.5f, -0.2f, 1.6f, 3.0f));
+  BoxWorld corner;
+  corner.add_box(Box3{Eigen::Vector3f(1.2f, 0.45f, 0.0f), Eigen::Vector3f(2.2f, 1.5f, 1.0f)});
+  for (const bool rule : {true, false}) {
+    MarkovPredictorConfig c = markov_config(5);
+    c.straight_when_free = rule;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(c), Status::kOk);
+    PathPrediction out;
+    const ObstacleState o = walker(5, 0.0f, 0.0f, 1.2f, 0.0f);
+    for (int f = 0; f < 10; ++f) ASSERT_EQ(mp.predict(&o, 1, before.query(), &out), Status::kOk);
+    ASSERT_GT(out.chosen, 2u);  // a right turn
+    ASSERT_EQ(mp.predict(&o, 1, corner.query(), &out), Status::kOk);
+    EXPECT_TRUE(out.path_free(2));
+    EXPECT_FALSE(out.path_free(0));  // the sharp left turn meets the corner
+    if (rule) {
+      EXPECT_EQ(out.chosen, 2u);
+      EXPECT_FALSE(out.failed);
+    } else {
+      EXPECT_NE(out.chosen, 2u);  // the old belief: what the rule fixes
+    }
+  }
+}
+
+TEST(MarkovPredictorFarField, ZeroAllocationsWithTheLayer) {
+  const CameraIntrinsics cam = far_camera();
+  auto layer = std::make_unique<FarFieldLayer>();
+  ASSERT_EQ(layer->init(FarFieldConfig{}, 0.0f), Status::kOk);
+  test::WorldScene scene;
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(7.0f, -1.6f, 0.0f), Eigen::Vector3f(7.2f, 1.6f, 2.5f)});
+  std::vector<std::uint16_t> pixels;
+  const Pose ahead = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), 0.0f);
+  const DepthView view = test::render(scene, cam, ahead, pixels);
+  BoxWorld empty;
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+  std::array<ObstacleState, 3> obs = {walker(1, 5.0f, 0.0f, 1.0f, 0.0f),
+                                      walker(2, 4.0f, 1.0f, 1.0f, 0.2f),
+                                      walker(3, 5.5f, -1.0f, 0.8f, 0.0f)};
+  std::array<PathPrediction, 3> out;
+  std::size_t allocations = 0;
+  {
+    test::AllocationGuard guard;
+    for (int f = 0; f < 5; ++f) {
+      (void)layer->update(view, cam, ahead, nullptr, 0);
+      (void)mp.predict(obs.data(), obs.size(), empty.query(), nullptr, layer.get(), out.data());
+    }
+    allocations = guard.allocations();
+  }
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_NE(out[0].chosen, 2u);
 }
 
 }  // namespace

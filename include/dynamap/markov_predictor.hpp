@@ -55,6 +55,12 @@ struct MarkovPredictorConfig {
   /// the probabilities are the same either way; only the choice differs. false: the plain
   /// maximum (docs/design.md §4.6 as written).
   bool choose_free = true;
+  /// Output the straight path whenever it is free (map and far-field layer) and no path has a
+  /// larger Dist (P_env's support): a turn is chosen only when the environment argues for it.
+  /// The compounded belief keeps old turns and drifts to the middle of the free set along a wall
+  /// (docs/predictor.md, "Choice"), and with nothing in the map to tell them apart it picked
+  /// turns into walls it had not seen. Only the choice changes, not the belief.
+  bool straight_when_free = true;
   /// The current depth frame as a second environment source next to the map (prediction.hpp,
   /// DepthCheckConfig): Dist_i is the smaller of the two free distances, and a path is free
   /// (free_mask, any_free, choose_free, failed) only when neither meets anything. Used only
@@ -95,7 +101,14 @@ class MarkovPredictor {
   /// disc tests per lookup that finds a surface.
   [[nodiscard]] Status predict(const ObstacleState* obstacles, std::size_t count,
                                const OccupancyQuery& map, const DepthEvidence* depth,
-                               PathPrediction* out) noexcept;
+                               PathPrediction* out) noexcept {
+    return predict(obstacles, count, map, depth, nullptr, out);
+  }
+  /// The same with the far-field layer (nullptr or not enabled: not used): its remembered walls
+  /// block paths like the map's occupied voxels (prediction.hpp, sweep_path).
+  [[nodiscard]] Status predict(const ObstacleState* obstacles, std::size_t count,
+                               const OccupancyQuery& map, const DepthEvidence* depth,
+                               const FarFieldLayer* far_field, PathPrediction* out) noexcept;
 
   /// Forgets every track.
   void reset() noexcept { beliefs_.clear(); }
@@ -120,13 +133,16 @@ class MarkovPredictor {
 
  private:
   void predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
-                   const DepthSweep& depth, PathPrediction* out) noexcept;
+                   const DepthSweep& depth, const FarFieldLayer* far_field,
+                   PathPrediction* out) noexcept;
   // The steps of predict_one: sample and sweep every path (distances and masks into `out`) and
   // return P_env; update the track's belief with P_env and return the posterior; pick the path.
   Belief sweep_paths(const ObstacleState& obstacle, const OccupancyQuery& map,
-                     const DepthSweep& depth, PathPrediction* out) noexcept;
+                     const DepthSweep& depth, const FarFieldLayer* far_field,
+                     PathPrediction* out) noexcept;
   Belief update_belief(std::uint32_t track_id, const Belief& env) noexcept;
   std::size_t choose_path(const Belief& post, const PathPrediction& out) const noexcept;
+  float support(const PathPrediction& out, std::size_t i) const noexcept;
 
   MarkovPredictorConfig config_{};
   PathLibrary library_{};

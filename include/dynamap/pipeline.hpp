@@ -11,6 +11,7 @@
 #include "dynamap/clean_history.hpp"
 #include "dynamap/constants.hpp"
 #include "dynamap/dynamic_region_cleaner.hpp"
+#include "dynamap/far_field_layer.hpp"
 #include "dynamap/linear_predictor.hpp"
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/markov_predictor.hpp"
@@ -103,6 +104,8 @@ class Pipeline {
 
   /// Read-only map for planners' queries between frames (same thread, or after a hand-off).
   const OccupancyMap& map() const noexcept { return map_; }
+  /// The far-field layer the Markov predictor reads (config().far_field; empty when disabled).
+  const FarFieldLayer& far_field() const noexcept { return far_field_; }
   const Tracker& tracker() const noexcept { return tracker_; }
   /// The last frame's refined detections, in the order the tracker received them
   /// (TrackedObstacle::detection indexes this list).
@@ -149,6 +152,8 @@ class Pipeline {
 
   DetectionList detections_{};
   std::array<ObstacleState, kMaxTracks> predictor_input_{};
+  FarFieldLayer far_field_{};
+  std::array<FarFieldExclusion, kFarFieldMaxExclusions> far_exclusions_{};
 
   std::array<StageStats, kStageCount> stage_stats_{};
   StageStats frame_stats_{};

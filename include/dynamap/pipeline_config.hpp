@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "dynamap/dynamic_region_cleaner.hpp"
+#include "dynamap/far_field_layer.hpp"
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"
@@ -19,7 +20,9 @@
 
 namespace dynamap {
 
-/// The six stages of Pipeline::process, in order.
+/// The stages of Pipeline::process, in order, except kFarField: it runs between cleaning and
+/// prediction, and is listed last so the other indices (budgets, timing columns) keep their
+/// meaning.
 enum class Stage : std::uint8_t {
   kOccupancy = 0,  ///< depth -> rays -> hashed voxel grid
   kDetection,      ///< U-map region proposals
@@ -27,8 +30,9 @@ enum class Stage : std::uint8_t {
   kTracking,       ///< association, Kalman filter, continuity + voting
   kCleaning,       ///< dynamic obstacles' trails freed in the map
   kPrediction,     ///< Markov path prediction (+ linear baseline)
+  kFarField,       ///< far-field top-view layer for the predictor (runs before prediction)
 };
-inline constexpr std::size_t kStageCount = 6;
+inline constexpr std::size_t kStageCount = 7;
 /// Short stage name ("occupancy", "detection", ...), stable for CSV headers.
 const char* to_string(Stage s) noexcept;
 
@@ -52,6 +56,9 @@ struct PipelineConfig {
   TrackerConfig tracker{};
   DynamicRegionCleanerConfig cleaner{};
   MarkovPredictorConfig predictor{};
+  /// Far-field top-view layer the Markov predictor reads beyond the map's range (not the linear
+  /// baseline); its update is Stage::kFarField.
+  FarFieldConfig far_field{};
   Stamp clean_history_max_age_ns =
       3'000'000'000ULL;  ///< cleaned voxels count as occupied this long
   /// Also run the constant-velocity predictor (FrameOutput::linear_predictions): the yardstick

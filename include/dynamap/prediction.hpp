@@ -16,6 +16,8 @@
 
 namespace dynamap {
 
+class FarFieldLayer;
+
 /// What the predictors need to know about one dynamic obstacle (from its track).
 struct ObstacleState {
   std::uint32_t track_id = 0;
@@ -159,6 +161,7 @@ struct PathClearance {
   /// (unknown or occupied), <= free_distance; == free_distance when not measured.
   float observed_distance = 0.0f;
   bool depth_blocked = false;  ///< the depth image met a surface before the map's first hit
+  bool far_blocked = false;    ///< the far-field layer met a wall before the map's first hit
 };
 
 /// What the depth check needs besides the frame: its settings and the obstacles whose pixels are
@@ -181,9 +184,14 @@ struct DepthSweep {
 /// looked up in the depth image: free_distance becomes the smaller of the two, and the path is
 /// free only when neither meets anything. Extra work: at most samples x lines x height_levels
 /// pixel lookups, plus depth.count disc tests for each lookup that finds a surface.
+/// With a `far_field` layer (far_field_layer.hpp), the swept lines' points at every sample (up
+/// to the map's hit, lines at most one layer cell apart) are also looked up in it: a remembered
+/// far wall ends the free distance there and the path is not free (far_blocked). Extra work: at
+/// most samples x (2 radius / cell + 2) cell lookups.
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance,
-                         bool observed = false, const DepthSweep& depth = DepthSweep{}) noexcept;
+                         bool observed = false, const DepthSweep& depth = DepthSweep{},
+                         const FarFieldLayer* far_field = nullptr) noexcept;
 
 /// One obstacle's prediction. For the linear predictor num_paths is 1.
 struct PathPrediction {
@@ -199,6 +207,8 @@ struct PathPrediction {
   /// bit i set when the depth image (DepthCheckConfig) met a surface on path i where the map
   /// held none (before the map's first hit, or on a path the map holds free)
   std::uint32_t depth_blocked_mask = 0;
+  /// bit i set when the far-field layer met a remembered wall on path i where the map held none
+  std::uint32_t far_blocked_mask = 0;
   float path_length = 0.0f;  ///< m, arc length of every path
   std::size_t num_samples = 0;
   std::array<Eigen::Vector3f, kMaxPathSamples> position;  ///< chosen path, map frame

@@ -9,7 +9,10 @@ false dynamic track (> 1 m from every listed obstacle), no library path truly fr
 free in the map, the chosen path free in the map but truly blocked (split by what the map holds
 on the true shape near the hit: unknown / occupied / free; unknown split by the hit's distance
 from the camera and by whether any voxel of that shape's surface was ever seen occupied), and
-the belief choosing a path the map blocks although one was free. Python 3 standard library only.
+the belief choosing a path the map blocks although one was free. Predictions with path -1 (no
+path free in the map and the far-field layer: the evaluator counts them as failures) are split
+first: no library path truly free (walker behaviour), a false far-field wall, or the map.
+Python 3 standard library only.
 """
 import collections
 import csv
@@ -20,7 +23,11 @@ import sys
 ROWS = [
     ("predictions", "predictions"),
     ("on_false_dyn", "... of which on false dynamic tracks"),
-    ("markov_fail", "Markov failing"),
+    ("eval_fail", "Markov failing as the evaluator counts (collides, or path -1)"),
+    ("nopath_behaviour", "path -1, no library path truly free (walker behaviour: U-turn, stop at a wall)"),
+    ("nopath_far", "path -1, one truly free, the far-field layer blocked it (false far wall)"),
+    ("nopath_map", "path -1, one truly free, the map blocked every path (own body, map noise)"),
+    ("markov_fail", "with a path (not -1), the chosen path truly colliding: by cause below"),
     ("linear_fail", "linear failing"),
     ("false_dyn", "false dynamic track (every path collides)"),
     ("no_lib_true_free", "no library path truly free"),
@@ -41,12 +48,22 @@ def classify(path):
     for r in csv.DictReader(open(path)):
         c["predictions"] += 1
         mf, lf = int(r["markov_fail"]), int(r["linear_fail"])
-        c["markov_fail"] += mf
         c["linear_fail"] += lf
         false_dyn = float(r["gt_dist"]) > 1.0
         c["on_false_dyn"] += false_dyn
+        no_path = int(r["any_map_free"]) == 0
+        c["eval_fail"] += mf or no_path
+        if no_path:
+            if int(r["true_free_mask"]) == 0:
+                c["nopath_behaviour"] += 1
+            elif int(r.get("far_mask", "0") or 0) != 0:
+                c["nopath_far"] += 1
+            else:
+                c["nopath_map"] += 1
+            continue  # one class per failing prediction: the rows below have a path
         if not mf:
             continue
+        c["markov_fail"] += 1
         chosen = int(r["chosen"])
         map_mask, true_mask = int(r["map_free_mask"]), int(r["true_free_mask"])
         if false_dyn:
@@ -77,7 +94,8 @@ def main(paths):
     print("|---|" + "---|" * len(names))
     for key, label in ROWS:
         print("| " + label + " | " + " | ".join(str(r[key]) for r in results) + " |")
-    for key, label in (("markov_fail", "Markov ratio"), ("linear_fail", "linear ratio")):
+    for key, label in (("eval_fail", "Markov ratio (evaluator's rule)"),
+                       ("linear_fail", "linear ratio (straight path collides)")):
         print("| " + label + " | " + " | ".join(
             "%.3f" % (r[key] / max(1, r["predictions"])) for r in results) + " |")
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -86,7 +87,7 @@ int run(int argc, char** argv) {
                "linear_fail,map_free_mask,true_free_mask,any_map_free,start_dist,hit_s,hit_x,"
                "hit_y,wall_occ,wall_free,wall_unknown,chosen_free_dist,max_free_dist,"
                "straight_free_dist,gt_dist,free_dists,observed_dists,probs,cam_x,cam_y,x,y,vx,vy,"
-               "depth_mask\n";
+               "depth_mask,far_mask\n";
   std::map<std::uint32_t, int> age;
   auto out = std::make_unique<FrameOutput>();
   PathSamples ps;
@@ -99,6 +100,22 @@ int run(int argc, char** argv) {
     frame.depth = DepthView{depth.pixels.data(), depth.width, depth.height,
                             depth.width * static_cast<int>(sizeof(std::uint16_t))};
     if (!ok(pipeline->process(frame, *out))) continue;
+    // DYNAMAP_DIAG_FAR_FRAME=f: the far-field layer's walls after frame f, to stderr (x y).
+    if (const char* ff = std::getenv("DYNAMAP_DIAG_FAR_FRAME");
+        ff != nullptr && static_cast<std::size_t>(std::atoi(ff)) == f &&
+        pipeline->far_field().initialised()) {
+      const FarFieldLayer& layer = pipeline->far_field();
+      const float c = layer.config().cell_size;
+      const Eigen::Vector2f cam = frame.T_map_camera.translation.head<2>();
+      for (float y = -12.f; y < 12.f; y += c) {
+        for (float x = -12.f; x < 12.f; x += c) {
+          const Eigen::Vector2f p = cam + Eigen::Vector2f(x + 0.5f * c, y + 0.5f * c);
+          if (layer.occupied(p)) {
+            std::cerr << "far " << p.x() << " " << p.y() << " " << layer.evidence(p) << "\n";
+          }
+        }
+      }
+    }
     std::map<std::uint32_t, int> next_age;
     for (std::size_t i = 0; i < out->num_predictions; ++i) {
       const PathPrediction& pm = out->predictions[i];
@@ -179,7 +196,7 @@ int run(int argc, char** argv) {
                 << joined(pm.probability, pm.num_paths) << "," << frame.T_map_camera.translation.x()
                 << "," << frame.T_map_camera.translation.y() << "," << start.x() << "," << start.y()
                 << "," << ob->velocity.x() << "," << ob->velocity.y() << ","
-                << pm.depth_blocked_mask << "\n";
+                << pm.depth_blocked_mask << "," << pm.far_blocked_mask << "\n";
     }
     age = next_age;
   }

@@ -1,0 +1,113 @@
+// FarFieldLayer: a coarse, fixed-size top-view memory of walls beyond the occupancy map's range,
+// for the predictor (docs/predictor.md, "Far-field layer"). The map integrates depth up to
+// map.max_depth (5 m); the camera sees 8-10 m, and walkers the tracker follows out there head
+// for walls the map holds as unknown. Each frame, every sampled image column is reduced to the
+// first surface (and the one behind it) in a height band above the floor, found in a histogram
+// of horizontal range whose window grows with the stereo noise sigma(d), so single noisy far
+// pixels never make a wall. Surfaces at least hit_min_range from the camera are written as hits
+// into a rolling 2-D grid, the space before the first surface as free. A cell is a wall while
+// its evidence is positive and it was hit within memory_frames: walls seen a moment ago and now
+// out of view still count. All state is inline; update() never allocates and does bounded work.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "dynamap/status.hpp"
+#include "dynamap/types.hpp"
+
+namespace dynamap {
+
+/// Cells per side of the rolling grid (power of two): 128 x 0.2 m = 25.6 m, enough for a 10 m
+/// range around the camera on every side.
+inline constexpr std::size_t kFarFieldCellsPerSide = 128;
+/// Range bins of one column's histogram: max_range / cell_size must fit.
+inline constexpr std::size_t kFarFieldMaxBins = 128;
+/// Discs (walkers) whose pixels are not walls.
+inline constexpr std::size_t kFarFieldMaxExclusions = 64;
+
+struct FarFieldConfig {
+  bool enabled = true;  ///< false: no update, the predictor uses the map alone
+  float cell_size = 0.2f;      ///< m, grid cell and range bin, [0.05, 1]
+  float max_range = 9.0f;      ///< m, horizontal range of pixels used, (hit_min_range, 25]
+  float hit_min_range = 4.5f;  ///< m: nearer surfaces are the map's; >= 0
+  float min_height = 0.3f;     ///< m above ground_height: lower pixels are floor
+  float max_height = 2.4f;     ///< m above ground_height: higher pixels are ceiling (> min)
+  /// m above ground_height a surface must reach (some of its points) to be written as a wall:
+  /// taller than a person, so untracked walkers leave no trail; in [min, max_height]. Lower
+  /// surfaces (boxes) are left to the map; they still end the free ray.
+  float wall_height = 2.0f;
+  float noise_margin = 0.05f;       ///< m, sigma(d) = noise_margin + noise_quadratic * d^2, >= 0
+  float noise_quadratic = 0.0042f;  ///< m per m^2, >= 0 (one sigma of a stereo camera)
+  int pixel_stride = 4;             ///< sampled columns and rows, 1..16
+  int min_pixels = 3;       ///< pixels in one column's noise window to accept a surface, >= 1
+  int hit_evidence = 3;     ///< added per frame a cell is hit, 1..100
+  int free_evidence = 1;    ///< removed per frame a ray passes the cell, 0..100
+  int max_evidence = 6;     ///< clamp, >= hit_evidence
+  int memory_frames = 150;  ///< a wall is forgotten this many frames after its last hit, >= 1
+};
+
+/// kInvalidArgument when a field is out of range (the ranges are in the field comments).
+[[nodiscard]] Status validate(const FarFieldConfig& c) noexcept;
+
+/// A disc (top view) whose pixels are not static walls: a tracked walker.
+struct FarFieldExclusion {
+  Eigen::Vector2f centre = Eigen::Vector2f::Zero();
+  float radius = 0.0f;
+};
+
+class FarFieldLayer {
+ public:
+  /// kInvalidArgument (nothing changes) on a bad config.
+  [[nodiscard]] Status init(const FarFieldConfig& config, float ground_height) noexcept;
+
+  /// Integrates one frame. Pixels within an exclusion disc (plus the noise margin) are skipped.
+  /// Errors, state unchanged: kNotInitialized; validate_depth's; kNonFinite (pose);
+  /// kCapacityExceeded (more than kFarFieldMaxExclusions); kNullData (exclusions null, count > 0).
+  /// Work: (width / stride) x (height / stride) pixels plus kFarFieldMaxBins cells per column.
+  [[nodiscard]] Status update(const DepthView& depth, const CameraIntrinsics& camera,
+                              const Pose& T_map_camera, const FarFieldExclusion* exclusions,
+                              std::size_t count) noexcept;
+
+  /// Is the cell holding map point `p` (top view) a remembered wall?
+  bool occupied(const Eigen::Vector2f& p) const noexcept;
+  /// Evidence of that cell (0 when never touched or overwritten by the rolling window).
+  int evidence(const Eigen::Vector2f& p) const noexcept;
+
+  bool initialised() const noexcept { return initialised_; }
+  const FarFieldConfig& config() const noexcept { return config_; }
+  std::uint32_t frames() const noexcept { return frame_; }
+  /// Surfaces written as hits in the last update (for diagnosis).
+  std::size_t last_hits() const noexcept { return last_hits_; }
+  void reset() noexcept;
+
+ private:
+  struct Cell {
+    std::int32_t ix = 0;
+    std::int32_t iy = 0;
+    std::uint32_t last_hit = 0;  ///< frame_ at the last hit
+    std::int8_t evidence = 0;
+    bool used = false;
+  };
+  Cell* cell_for_write(const Eigen::Vector2f& p) noexcept;
+  const Cell* cell_for_read(const Eigen::Vector2f& p) const noexcept;
+  bool key(const Eigen::Vector2f& p, std::int32_t* ix, std::int32_t* iy) const noexcept;
+  void add_hit(const Eigen::Vector2f& p) noexcept;
+  void add_free(const Eigen::Vector2f& from, const Eigen::Vector2f& to) noexcept;
+
+  FarFieldConfig config_{};
+  float ground_height_ = 0.0f;
+  bool initialised_ = false;
+  std::uint32_t frame_ = 0;
+  std::size_t last_hits_ = 0;
+  std::array<Cell, kFarFieldCellsPerSide * kFarFieldCellsPerSide> cells_{};
+  // Scratch for one column (no allocation): count and sum of x, y per range bin.
+  std::array<std::uint16_t, kFarFieldMaxBins> bin_count_{};
+  std::array<std::uint16_t, kFarFieldMaxBins> bin_tall_{};  // points above wall_height
+  std::array<Eigen::Vector2f, kFarFieldMaxBins> bin_sum_{};
+};
+
+}  // namespace dynamap

@@ -1,0 +1,332 @@
+#include "dynamap/far_field_layer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Geometry>
+
+namespace dynamap {
+
+namespace {
+bool finite_at_least(float v, float lo) noexcept {
+  return std::isfinite(v) && v >= lo;
+}
+// Cell coordinates are kept well inside int32 (and float's exact integers).
+constexpr float kMaxCellCoord = 1.0e6f;
+}  // namespace
+
+Status validate(const FarFieldConfig& c) noexcept {
+  if (!std::isfinite(c.cell_size) || c.cell_size < 0.05f || c.cell_size > 1.0f) {
+    return Status::kInvalidArgument;
+  }
+  if (!finite_at_least(c.hit_min_range, 0.0f)) return Status::kInvalidArgument;
+  if (!std::isfinite(c.max_range) || c.max_range <= c.hit_min_range || c.max_range > 25.0f) {
+    return Status::kInvalidArgument;
+  }
+  // Every range bin of a column must fit, and the grid must hold the range on every side.
+  if (c.max_range / c.cell_size > static_cast<float>(kFarFieldMaxBins) ||
+      2.0f * c.max_range / c.cell_size > static_cast<float>(kFarFieldCellsPerSide) - 2.0f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.min_height) || !std::isfinite(c.max_height) ||
+      c.max_height <= c.min_height || !std::isfinite(c.wall_height) ||
+      c.wall_height < c.min_height || c.wall_height > c.max_height) {
+    return Status::kInvalidArgument;
+  }
+  if (!finite_at_least(c.noise_margin, 0.0f) || !finite_at_least(c.noise_quadratic, 0.0f)) {
+    return Status::kInvalidArgument;
+  }
+  if (c.pixel_stride < 1 || c.pixel_stride > 16 || c.min_pixels < 1) {
+    return Status::kInvalidArgument;
+  }
+  if (c.hit_evidence < 1 || c.hit_evidence > 100 || c.free_evidence < 0 || c.free_evidence > 100 ||
+      c.max_evidence < c.hit_evidence || c.max_evidence > 127) {
+    return Status::kInvalidArgument;
+  }
+  if (c.memory_frames < 1) return Status::kInvalidArgument;
+  return Status::kOk;
+}
+
+Status FarFieldLayer::init(const FarFieldConfig& config, float ground_height) noexcept {
+  if (!ok(validate(config)) || !std::isfinite(ground_height)) return Status::kInvalidArgument;
+  config_ = config;
+  ground_height_ = ground_height;
+  initialised_ = true;
+  reset();
+  return Status::kOk;
+}
+
+void FarFieldLayer::reset() noexcept {
+  for (Cell& c : cells_) c = Cell{};
+  frame_ = 0;
+  last_hits_ = 0;
+}
+
+bool FarFieldLayer::key(const Eigen::Vector2f& p, std::int32_t* ix,
+                        std::int32_t* iy) const noexcept {
+  const float fx = std::floor(p.x() / config_.cell_size);
+  const float fy = std::floor(p.y() / config_.cell_size);
+  if (!(std::fabs(fx) < kMaxCellCoord) || !(std::fabs(fy) < kMaxCellCoord)) return false;
+  *ix = static_cast<std::int32_t>(fx);
+  *iy = static_cast<std::int32_t>(fy);
+  return true;
+}
+
+namespace {
+std::size_t slot_of(std::int32_t ix, std::int32_t iy) noexcept {
+  constexpr std::uint32_t mask = static_cast<std::uint32_t>(kFarFieldCellsPerSide - 1);
+  const std::uint32_t sx = static_cast<std::uint32_t>(ix) & mask;
+  const std::uint32_t sy = static_cast<std::uint32_t>(iy) & mask;
+  return static_cast<std::size_t>(sy) * kFarFieldCellsPerSide + sx;
+}
+}  // namespace
+
+FarFieldLayer::Cell* FarFieldLayer::cell_for_write(const Eigen::Vector2f& p) noexcept {
+  std::int32_t ix = 0;
+  std::int32_t iy = 0;
+  if (!key(p, &ix, &iy)) return nullptr;
+  Cell& c = cells_[slot_of(ix, iy)];
+  if (!c.used || c.ix != ix || c.iy != iy) {
+    // The rolling window moved on: the slot now holds this cell, with no evidence yet.
+    c = Cell{};
+    c.ix = ix;
+    c.iy = iy;
+    c.used = true;
+  }
+  return &c;
+}
+
+const FarFieldLayer::Cell* FarFieldLayer::cell_for_read(const Eigen::Vector2f& p) const noexcept {
+  std::int32_t ix = 0;
+  std::int32_t iy = 0;
+  if (!key(p, &ix, &iy)) return nullptr;
+  const Cell& c = cells_[slot_of(ix, iy)];
+  if (!c.used || c.ix != ix || c.iy != iy) return nullptr;
+  return &c;
+}
+
+bool FarFieldLayer::occupied(const Eigen::Vector2f& p) const noexcept {
+  if (!initialised_) return false;
+  const Cell* c = cell_for_read(p);
+  if (c == nullptr || c->evidence <= 0) return false;
+  return frame_ - c->last_hit <= static_cast<std::uint32_t>(config_.memory_frames);
+}
+
+int FarFieldLayer::evidence(const Eigen::Vector2f& p) const noexcept {
+  const Cell* c = initialised_ ? cell_for_read(p) : nullptr;
+  return c == nullptr ? 0 : c->evidence;
+}
+
+void FarFieldLayer::add_hit(const Eigen::Vector2f& p) noexcept {
+  Cell* c = cell_for_write(p);
+  if (c == nullptr) return;
+  const int e = std::max(0, static_cast<int>(c->evidence)) + config_.hit_evidence;
+  c->evidence = static_cast<std::int8_t>(std::min(e, config_.max_evidence));
+  c->last_hit = frame_;
+}
+
+void FarFieldLayer::add_free(const Eigen::Vector2f& from, const Eigen::Vector2f& to) noexcept {
+  if (config_.free_evidence == 0) return;
+  const Eigen::Vector2f d = to - from;
+  const float len = d.norm();
+  if (!(len > 0.0f)) return;
+  // Half-cell steps: at most 2 * kFarFieldMaxBins cells per column.
+  const float step = 0.5f * config_.cell_size;
+  const int n = std::min(static_cast<int>(len / step), static_cast<int>(2 * kFarFieldMaxBins));
+  const Eigen::Vector2f inc = d * (step / len);
+  Eigen::Vector2f p = from;
+  std::int32_t last_ix = 0;
+  std::int32_t last_iy = 0;
+  bool have_last = false;
+  for (int k = 0; k <= n; ++k, p += inc) {
+    std::int32_t ix = 0;
+    std::int32_t iy = 0;
+    if (!key(p, &ix, &iy)) continue;
+    if (have_last && ix == last_ix && iy == last_iy) continue;  // once per cell and ray
+    have_last = true;
+    last_ix = ix;
+    last_iy = iy;
+    Cell* c = cell_for_write(p);
+    if (c == nullptr) continue;
+    const int e = static_cast<int>(c->evidence) - config_.free_evidence;
+    c->evidence = static_cast<std::int8_t>(std::max(e, -config_.max_evidence));
+  }
+}
+
+Status FarFieldLayer::update(const DepthView& depth, const CameraIntrinsics& camera,
+                             const Pose& T_map_camera, const FarFieldExclusion* exclusions,
+                             std::size_t count) noexcept {
+  if (!initialised_) return Status::kNotInitialized;
+  const Status s = validate_depth(depth, camera);
+  if (!ok(s)) return s;
+  if (!T_map_camera.translation.allFinite() || !T_map_camera.rotation.coeffs().allFinite()) {
+    return Status::kNonFinite;
+  }
+  if (count > kFarFieldMaxExclusions) return Status::kCapacityExceeded;
+  if (count > 0 && exclusions == nullptr) return Status::kNullData;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!exclusions[k].centre.allFinite() || !std::isfinite(exclusions[k].radius)) {
+      return Status::kNonFinite;
+    }
+  }
+
+  ++frame_;
+  last_hits_ = 0;
+  const FarFieldConfig& c = config_;
+  const Eigen::Matrix3f R = T_map_camera.rotation.toRotationMatrix();
+  const Eigen::Vector3f origin = T_map_camera.translation;
+  const Eigen::Vector2f o2 = origin.head<2>();
+  const float z_lo = ground_height_ + c.min_height;
+  const float z_hi = ground_height_ + c.max_height;
+  const float z_tall = ground_height_ + c.wall_height;
+  const float bin = c.cell_size;
+  const std::size_t bins =
+      std::min(kFarFieldMaxBins, static_cast<std::size_t>(std::ceil(c.max_range / bin)));
+  const float inv_fx = 1.0f / camera.fx;
+  const float inv_fy = 1.0f / camera.fy;
+  const int stride = c.pixel_stride;
+  auto sigma = [&c](float d) { return c.noise_margin + c.noise_quadratic * d * d; };
+
+  // The discs' bearings from the camera, once per frame: a column only tests the discs its
+  // bearing passes (usually none), not every disc at every pixel.
+  const float m_max = sigma(c.max_range);
+  std::array<float, kFarFieldMaxExclusions> disc_angle{};
+  std::array<float, kFarFieldMaxExclusions> disc_half{};
+  for (std::size_t k = 0; k < count; ++k) {
+    const Eigen::Vector2f rel = exclusions[k].centre - o2;
+    const float dist = rel.norm();
+    const float reach = std::fabs(exclusions[k].radius) + m_max;
+    disc_angle[k] = std::atan2(rel.y(), rel.x());
+    disc_half[k] = dist <= reach ? 4.0f : std::asin(reach / dist);  // 4 > pi: every column
+  }
+  auto wrap = [](float a) {
+    constexpr float kPi = 3.14159265f;
+    while (a > kPi) a -= 2.0f * kPi;
+    while (a < -kPi) a += 2.0f * kPi;
+    return a;
+  };
+  std::array<std::size_t, kFarFieldMaxExclusions> near_discs{};
+  const Eigen::Vector3f row_step = R.col(1) * inv_fy;
+
+  for (int u = stride / 2; u < depth.width; u += stride) {
+    std::fill(bin_count_.begin(), bin_count_.begin() + static_cast<std::ptrdiff_t>(bins), 0);
+    std::fill(bin_tall_.begin(), bin_tall_.begin() + static_cast<std::ptrdiff_t>(bins), 0);
+    for (std::size_t b = 0; b < bins; ++b) bin_sum_[b].setZero();
+    const float xn = (static_cast<float>(u) - camera.cx) * inv_fx;
+    // Map-frame ray direction of pixel (u, v) with unit depth: col_dir + (v - cy) * row_step.
+    const Eigen::Vector3f col_dir = R.col(0) * xn + R.col(2);
+    std::size_t n_near = 0;
+    if (count > 0) {
+      const Eigen::Vector3f top = col_dir - camera.cy * row_step;
+      const Eigen::Vector3f bottom =
+          col_dir + (static_cast<float>(depth.height) - camera.cy) * row_step;
+      const float a0 = std::atan2(top.y(), top.x());
+      const float a1 = std::atan2(bottom.y(), bottom.x());
+      const float mid = a0 + 0.5f * wrap(a1 - a0);
+      const float span = 0.5f * std::fabs(wrap(a1 - a0));
+      for (std::size_t k = 0; k < count; ++k) {
+        if (std::fabs(wrap(disc_angle[k] - mid)) <= disc_half[k] + span + 0.01f) {
+          near_discs[n_near++] = k;
+        }
+      }
+    }
+    Eigen::Vector2f beyond(std::numeric_limits<float>::quiet_NaN(), 0.0f);
+    for (int v = stride / 2; v < depth.height; v += stride) {
+      const std::uint16_t raw = depth.at(u, v);
+      if (raw == 0) continue;
+      const float d = static_cast<float>(raw) * camera.depth_scale;
+      const Eigen::Vector3f p =
+          origin + d * (col_dir + (static_cast<float>(v) - camera.cy) * row_step);
+      // Floor and ceiling: the band's edges move in by the depth noise's vertical share, so
+      // neither leaks into it.
+      const float m = sigma(d);
+      const float mz = m * std::fabs(p.z() - origin.z()) / d;
+      if (p.z() < z_lo + mz || p.z() > z_hi - mz) continue;
+      const bool tall = p.z() >= z_tall;
+      const Eigen::Vector2f q = p.head<2>();
+      const float range = (q - o2).norm();
+      bool walker = false;
+      for (std::size_t j = 0; j < n_near && !walker; ++j) {
+        const FarFieldExclusion& e = exclusions[near_discs[j]];
+        const float r = e.radius + m;
+        walker = (q - e.centre).squaredNorm() < r * r;
+      }
+      if (walker) continue;
+      if (!(range < c.max_range)) {
+        // A surface beyond the range: the column is seen free out to max_range (unless a
+        // nearer surface is found below), which clears what walked through it.
+        if (range >= c.max_range) beyond = q;
+        continue;
+      }
+      const std::size_t b = std::min(bins - 1, static_cast<std::size_t>(range / bin));
+      if (bin_count_[b] < 0xFFFF) ++bin_count_[b];
+      if (tall && bin_tall_[b] < 0xFFFF) ++bin_tall_[b];
+      bin_sum_[b] += q;
+    }
+
+    // The first two surfaces of the column: the nearest window of range bins, as wide as the
+    // noise at that range, holding at least min_pixels points. The surface is the centroid of
+    // the points within two windows of it (noise spreads a wall both ways along the ray).
+    int surfaces = 0;
+    std::size_t b = 0;
+    while (b < bins && surfaces < 2) {
+      const float r_b = (static_cast<float>(b) + 0.5f) * bin;
+      const std::size_t w =
+          std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(sigma(r_b) / bin)));
+      int n = 0;
+      for (std::size_t k = b; k < std::min(bins, b + w); ++k) n += bin_count_[k];
+      if (n < c.min_pixels) {
+        ++b;
+        continue;
+      }
+      // The noise spreads a surface along the ray, and its near tail triggers first: the
+      // surface is the densest window in the next two windows, and its position the centroid of
+      // the points in that window (a wider one would mix in a walker just in front of a wall).
+      std::size_t peak = b;
+      int peak_n = -1;
+      for (std::size_t k = b; k <= std::min(bins - 1, b + 2 * w); ++k) {
+        int m = 0;
+        for (std::size_t j = k; j < std::min(bins, k + w); ++j) m += bin_count_[j];
+        if (m > peak_n) {
+          peak_n = m;
+          peak = k;
+        }
+      }
+      const std::size_t lo = peak;
+      const std::size_t end = std::min(bins, peak + w);
+      int total = 0;
+      int tall = 0;
+      Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+      for (std::size_t k = lo; k < end; ++k) {
+        total += bin_count_[k];
+        tall += bin_tall_[k];
+        sum += bin_sum_[k];
+      }
+      const Eigen::Vector2f hit = sum / static_cast<float>(total);
+      const Eigen::Vector2f ray = hit - o2;
+      const float range = ray.norm();
+      if (surfaces == 0 && range > 0.0f) {
+        // Seen free up to the surface, less half its noise and a cell.
+        const float free_to = range - 0.5f * sigma(range) - bin;
+        if (free_to > 0.0f) add_free(o2, o2 + ray * (free_to / range));
+      }
+      // Only a surface taller than a person is a wall: walkers the tracker has not (yet) got
+      // would otherwise leave remembered trails. Lower ones still end the free ray.
+      if (range >= c.hit_min_range && tall > 0) {
+        add_hit(hit);
+        ++last_hits_;
+      }
+      ++surfaces;
+      // The far tail of this surface is not a second one.
+      b = end + 2 * w;
+    }
+    if (surfaces == 0 && std::isfinite(beyond.x())) {
+      const Eigen::Vector2f ray = beyond - o2;
+      add_free(o2, o2 + ray * (c.max_range / ray.norm()));
+    }
+  }
+  return Status::kOk;
+}
+
+}  // namespace dynamap
