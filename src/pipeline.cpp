@@ -55,6 +55,7 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   if (ok(s)) s = tracker_.init(tracker);
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
   if (ok(s)) s = cleaner_.init(cleaner);
+  if (ok(s)) s = ever_free_.init(config.ever_free, config.ground_height);
   if (ok(s)) s = markov_.init(config.predictor);
   if (ok(s)) {
     LinearPredictorConfig lc;
@@ -147,6 +148,10 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
     detections_.clear();
   }
   counters_.detections_dropped += detector_.last_stats().detections_dropped;
+  // Where the camera has seen free space: dynamic evidence for each detection (tracker.md).
+  if (ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera))) {
+    ever_free_.annotate(detections_.data(), detections_.size());
+  }
   work.detections = detections_.size();
   lap(Stage::kDetection);
 

@@ -153,6 +153,24 @@ ConfigError validate(const PipelineConfig& c) noexcept {
             "tracker.history_length", "must be in 2..kMaxTrackHistory-1");
   k.require(c.tracker.box_history_length >= 1 && c.tracker.box_history_length <= kMaxBoxHistory,
             "tracker.box_history_length", "must be in 1..kMaxBoxHistory");
+  k.require(std::isfinite(c.tracker.ever_free_share) && c.tracker.ever_free_share > 0.f &&
+                c.tracker.ever_free_share <= 1.f,
+            "tracker.ever_free_share", "must be in (0, 1]");
+  {
+    const EverFreeConfig& e = c.ever_free;
+    k.require(std::isfinite(e.resolution) && e.resolution >= 0.05f && e.resolution <= 1.f,
+              "ever_free.resolution", "must be in [0.05, 1] m");
+    k.require(e.layers >= 1 && e.layers <= kEverFreeMaxLayers, "ever_free.layers",
+              "must be in 1..kEverFreeMaxLayers");
+    k.require(e.pixel_step >= 1 && e.pixel_step <= 64, "ever_free.pixel_step", "must be in 1..64");
+    k.require(std::isfinite(e.max_range) && e.max_range > 0.f && e.max_range <= 20.f,
+              "ever_free.max_range", "must be in (0, 20] m");
+    k.require(e.burn_in_frames >= 1 && e.burn_in_frames <= 255, "ever_free.burn_in_frames",
+              "must be in 1..255");
+    k.require(e.forget_frames >= 1 && e.forget_frames <= 255, "ever_free.forget_frames",
+              "must be in 1..255");
+    k.sub(e.validate(), "ever_free");
+  }
   {
     const ContinuityConfig& cc = c.tracker.continuity;
     k.require(cc.min_size.allFinite() && (cc.min_size.array() >= 0.f).all(),

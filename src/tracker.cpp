@@ -41,7 +41,8 @@ Status TrackerConfig::validate() const noexcept {
       size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
       noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
       std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
-      std::isfinite(max_coast_time) && max_coast_time > 0.f &&
+      std::isfinite(max_coast_time) && max_coast_time > 0.f && std::isfinite(ever_free_share) &&
+      ever_free_share > 0.f && ever_free_share <= 1.f &&
 
       history_length + 1 <= kMaxTrackHistory &&
       continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
@@ -140,6 +141,7 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.kf.reset(Eigen::Vector4f(m.center.x(), m.center.y(), 0.f, 0.f), config_.kalman);
   t.voter.reset();
   t.dynamic_streak = 0;
+  t.ever_free_streak = 0;
   t.every_vote_dynamic = true;
   t.was_dynamic = false;
   t.label = false;
@@ -200,7 +202,19 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   t.out.missed_frames = 0;
   ++t.out.hits;
   t.out.last_seen = stamp;
+  count_ever_free(t, det);
   vote(t);
+}
+
+void Tracker::count_ever_free(Track& t, const Detection& det) noexcept {
+  t.ever_free_streak = det.ever_free >= config_.ever_free_share ? t.ever_free_streak + 1 : 0;
+}
+
+bool Tracker::ever_free_label(const Track& t) const noexcept {
+  if (config_.ever_free_frames == 0 || t.ever_free_streak < config_.ever_free_frames) return false;
+  const ContinuityConfig& cc = config_.continuity;
+  return !cc.check_size || ((t.size.array() >= cc.min_size.array()).all() &&
+                            (t.size.array() <= cc.max_size.array()).all());
 }
 
 void Tracker::update_size(Track& t, const Measurement& m) noexcept {
@@ -248,7 +262,11 @@ void Tracker::vote(Track& t) noexcept {
   std::size_t span = config_.continuity.displacement_frames;
   const std::size_t early_span = config_.early_displacement_frames;
   if (n < span + 2 && early_span > 0 && n >= 2 * early_span + 1) span = early_span;
-  if (!continuity_score(ordered.data(), n, span, &c_con)) return;
+  if (!continuity_score(ordered.data(), n, span, &c_con)) {
+    t.label = ever_free_label(t);  // no vote yet: only the ever-free evidence
+    if (t.label) t.was_dynamic = true;
+    return;
+  }
   t.out.continuity = c_con;
   const float speed = t.kf.velocity().norm();
   const ContinuityFilter filter(config_.continuity);
@@ -258,7 +276,7 @@ void Tracker::vote(Track& t) noexcept {
   if (!dynamic_vote) t.every_vote_dynamic = false;
   const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
                      (t.every_vote_dynamic || t.was_dynamic);
-  t.label = t.voter.dynamic() || early;
+  t.label = t.voter.dynamic() || early || ever_free_label(t);
   if (t.label) t.was_dynamic = true;
 }
 
@@ -343,6 +361,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     t.out.detection = -1;
     // An early label needs an unbroken run of votes: a gap withdraws it.
     t.dynamic_streak = 0;
+    t.ever_free_streak = 0;
     if (t.voter.votes() > 0) t.every_vote_dynamic = false;
     t.label = t.voter.dynamic();
     if (t.out.missed_frames > config_.max_missed_frames) {
@@ -364,6 +383,8 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     }
     start_track(tracks_[free_slot], meas[i], stamp);
     tracks_[free_slot].out.detection = static_cast<std::int32_t>(i);
+    count_ever_free(tracks_[free_slot], dets[i]);
+    tracks_[free_slot].label = ever_free_label(tracks_[free_slot]);
     ++free_slot;
   }
 

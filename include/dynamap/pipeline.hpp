@@ -143,6 +143,7 @@ class Pipeline {
   Tracker tracker_{};
   CleanHistory history_{};
   DynamicRegionCleaner cleaner_{};
+  EverFreeGrid ever_free_{};
   MarkovPredictor markov_{};
   LinearPredictor linear_{};
 

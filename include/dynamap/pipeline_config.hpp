@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "dynamap/dynamic_region_cleaner.hpp"
+#include "dynamap/ever_free_grid.hpp"
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"
@@ -51,6 +52,7 @@ struct PipelineConfig {
   MapRefinerConfig refiner{};
   TrackerConfig tracker{};
   DynamicRegionCleanerConfig cleaner{};
+  EverFreeConfig ever_free{};  ///< ever-free space, the tracker's dynamic evidence
   MarkovPredictorConfig predictor{};
   Stamp clean_history_max_age_ns =
       3'000'000'000ULL;  ///< cleaned voxels count as occupied this long

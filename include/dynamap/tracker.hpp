@@ -126,6 +126,13 @@ struct TrackerConfig {
   /// (docs/tracker.md, "Measurement"). The per-frame footprint of a track whose size is not frozen
   /// yet is left alone: it is detection noise, not a re-estimate. No value to validate.
   bool compensate_size_steps = true;
+  /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
+  /// observed free (Detection::ever_free >= ever_free_share) on this many measured frames in a
+  /// row is labelled dynamic, whatever its votes: it has moved into empty space. Its size must
+  /// pass the continuity filter's size check. A frame without that evidence ends the run and
+  /// the label falls back to the votes (docs/tracker.md, "Static or dynamic").
+  std::size_t ever_free_frames = 3;
+  float ever_free_share = 0.5f;  ///< share of the detection's surface cells (0, 1]
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -196,9 +203,10 @@ class Tracker {
     Eigen::Vector3f corrected_with = Eigen::Vector3f::Zero();  // size behind the last correction
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
     std::size_t in_view_frames = 0;
-    std::size_t dynamic_streak = 0;  // consecutive dynamic votes on consecutive frames
-    bool every_vote_dynamic = true;  // no static vote and no missed frame since the first vote
-    bool was_dynamic = false;        // labelled dynamic at some time
+    std::size_t dynamic_streak = 0;    // consecutive dynamic votes on consecutive frames
+    std::size_t ever_free_streak = 0;  // measured frames in a row in ever-free space
+    bool every_vote_dynamic = true;    // no static vote and no missed frame since the first vote
+    bool was_dynamic = false;          // labelled dynamic at some time
     bool label = false;
     bool active = false;
   };
@@ -222,6 +230,8 @@ class Tracker {
   // the continuity filter's vote with the label.
   void update_size(Track& t, const Measurement& m) noexcept;
   void vote(Track& t) noexcept;
+  void count_ever_free(Track& t, const Detection& det) noexcept;
+  bool ever_free_label(const Track& t) const noexcept;
   void publish() noexcept;
 
   TrackerConfig config_{};
