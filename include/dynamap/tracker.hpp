@@ -219,6 +219,25 @@ class Tracker {
     bool in_view;
     bool near_enough;  // near enough for size fixing
   };
+  struct Pair {  // a candidate (detection, track) association
+    float distance;
+    std::uint8_t det;
+    std::uint8_t slot;
+  };
+  struct FrameScratch {  // one update's working memory (kept here: no stack arrays of this size)
+    std::array<Measurement, kMaxDetections> meas;
+    std::array<Pair, kMaxDetections * kMaxTracks> pairs;
+    std::size_t pair_count = 0;
+    std::array<bool, kMaxDetections> det_used{};
+    std::array<bool, kMaxTracks> track_used{};
+  };
+  // The steps of update(): input checks, prediction, candidate pairs, coasting, new tracks.
+  Status check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                     Stamp stamp) const noexcept;
+  void predict_tracks(Stamp stamp) noexcept;
+  void associate(std::size_t count) noexcept;
+  void coast_unmatched() noexcept;
+  void start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept;
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
                       const Eigen::Vector3f* fixed_size) const noexcept;
   bool fully_in_view(const ImageBox& b) const noexcept;
@@ -238,6 +257,7 @@ class Tracker {
   std::array<Track, kMaxTracks> tracks_{};
   std::array<TrackedObstacle, kMaxTracks> output_{};
   std::array<std::uint8_t, kMaxTracks> output_slot_{};
+  FrameScratch frame_{};
   std::size_t output_count_ = 0;
   std::uint32_t next_id_ = 1;
   Stamp last_stamp_ = 0;
