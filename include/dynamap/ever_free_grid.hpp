@@ -30,7 +30,7 @@ struct EverFreeConfig {
   float resolution = 0.2f;  ///< cell edge (m)
   float z_min = 0.2f;       ///< bottom of the lowest layer above the ground (m)
   int layers = 10;          ///< vertical layers (<= kEverFreeMaxLayers)
-  int pixel_step = 12;      ///< one ray every this many pixels in u and v
+  int pixel_step = 16;      ///< one ray every this many pixels in u and v
   float max_range = 5.0f;   ///< rays are walked at most this far (m)
   /// Free marking stops this far short of the measured point: surface_margin +
   /// margin_per_range2 * range^2 (depth noise grows with the square of the range).
