@@ -51,6 +51,7 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   // Stages validate their own configuration; the first refusal is reported.
   Status s = map_.init(config.map);
   if (ok(s)) s = detector_.init(config.detector);
+  if (ok(s)) s = fragments_.init(config.fragments);
   if (ok(s)) s = refiner_.init(refiner);
   if (ok(s)) s = tracker_.init(tracker);
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
@@ -148,6 +149,7 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
     detections_.clear();
   }
   counters_.detections_dropped += detector_.last_stats().detections_dropped;
+  (void)fragments_.join(detections_);
   // Where the camera has seen free space: dynamic evidence for each detection (tracker.md).
   if (ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera))) {
     ever_free_.annotate(detections_.data(), detections_.size());

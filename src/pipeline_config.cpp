@@ -156,6 +156,11 @@ ConfigError validate(const PipelineConfig& c) noexcept {
   k.require(std::isfinite(c.tracker.ever_free_share) && c.tracker.ever_free_share > 0.f &&
                 c.tracker.ever_free_share <= 1.f,
             "tracker.ever_free_share", "must be in (0, 1]");
+  k.require(std::isfinite(c.fragments.max_gap) && c.fragments.max_gap <= 1.f, "fragments.max_gap",
+            "must be finite and <= 1 m");
+  k.require(std::isfinite(c.fragments.max_footprint) && c.fragments.max_footprint > 0.f &&
+                c.fragments.max_footprint <= 5.f,
+            "fragments.max_footprint", "must be in (0, 5] m");
   {
     const EverFreeConfig& e = c.ever_free;
     k.require(std::isfinite(e.resolution) && e.resolution >= 0.05f && e.resolution <= 1.f,

@@ -139,6 +139,7 @@ class Pipeline {
 
   OccupancyMap map_{};
   UMapDetector detector_{};
+  DetectionRefiner fragments_{};
   MapRefiner refiner_{};
   Tracker tracker_{};
   CleanHistory history_{};

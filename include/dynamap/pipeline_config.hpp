@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "dynamap/detection_refiner.hpp"
 #include "dynamap/dynamic_region_cleaner.hpp"
 #include "dynamap/ever_free_grid.hpp"
 #include "dynamap/map_refiner.hpp"
@@ -49,6 +50,7 @@ struct PipelineConfig {
   CameraIntrinsics camera{};
   OccupancyMapConfig map{};
   UMapDetectorConfig detector{};
+  DetectionRefinerConfig fragments{};  ///< joining the detector's fragments of one obstacle
   MapRefinerConfig refiner{};
   TrackerConfig tracker{};
   DynamicRegionCleanerConfig cleaner{};
