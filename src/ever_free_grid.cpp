@@ -167,9 +167,10 @@ Status EverFreeGrid::integrate(const DepthView& depth, const CameraIntrinsics& c
           if (range <= config_.max_range) mark_hit(t + range * dir);
           continue;
         }
-        const bool beyond = range > config_.max_range;
+        // Short of the surface by the depth noise, and never past max_range: a wall just beyond
+        // it must not make its own near cells free.
         const float margin = config_.surface_margin + config_.margin_per_range2 * range * range;
-        const float reach = beyond ? config_.max_range : range - margin;
+        const float reach = std::min(config_.max_range, range - margin);
         if (reach > 0.f) walk_free(t, t + reach * dir);
       }
     }
