@@ -172,6 +172,23 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(tracker.size_fix_growth), X, "", 0, 1, kClosed, kClosed, "raise a frozen size to a larger window mean"},
     {DYNAMAP_FIELD(tracker.measure_raw_box), X, "", 0, 1, kClosed, kClosed, "measure from the detector's box, not the map-refined one"},
     {DYNAMAP_FIELD(tracker.compensate_size_steps), X, "", 0, 1, kClosed, kClosed, "keep a step of the frozen size from reading as motion"},
+    {DYNAMAP_FIELD(tracker.ever_free_frames), X, "frames", 0, kMaxVoteWindow, kClosed, kClosed, "detections in ever-free space in a row that label a track dynamic (0: off)"},
+    {DYNAMAP_FIELD(tracker.ever_free_share), X, "", 0, 1, kOpen, kClosed, "share of a detection's surface cells that must be ever free"},
+    // Fragment joining (detection_refiner.hpp).
+    {DYNAMAP_FIELD(fragments.join_fragments), X, "", 0, 1, kClosed, kClosed, "join the detector's fragments of one obstacle"},
+    {DYNAMAP_FIELD(fragments.max_gap), X, "m", -kInf, 1, kOpen, kClosed, "largest top-view gap between joined boxes (negative: must overlap)"},
+    {DYNAMAP_FIELD(fragments.max_footprint), X, "m", 0, 5, kOpen, kClosed, "largest horizontal side of a joined box"},
+    // Ever-free grid (ever_free_grid.hpp): space the camera has observed free.
+    {DYNAMAP_FIELD(ever_free.enabled), X, "", 0, 1, kClosed, kClosed, "keep the ever-free grid and use it as dynamic evidence"},
+    {DYNAMAP_FIELD(ever_free.resolution), X, "m", 0.05, 1, kClosed, kClosed, "cell edge"},
+    {DYNAMAP_FIELD(ever_free.z_min), X, "m", -10, 10, kClosed, kClosed, "bottom of the lowest layer above the ground"},
+    {DYNAMAP_FIELD(ever_free.layers), C, "", 1, kEverFreeMaxLayers, kClosed, kClosed, "vertical layers"},
+    {DYNAMAP_FIELD(ever_free.pixel_step), C, "px", 1, 64, kClosed, kClosed, "one ray every this many pixels in u and v"},
+    {DYNAMAP_FIELD(ever_free.max_range), X, "m", 0, 20, kOpen, kClosed, "rays are walked at most this far"},
+    {DYNAMAP_FIELD(ever_free.surface_margin), X, "m", 0, kInf, kClosed, kOpen, "free marking stops this far short of the surface"},
+    {DYNAMAP_FIELD(ever_free.margin_per_range2), X, "1/m", 0, kInf, kClosed, kOpen, "plus this times range^2"},
+    {DYNAMAP_FIELD(ever_free.burn_in_frames), X, "frames", 1, 255, kClosed, kClosed, "observed-free frames in a row to become ever free"},
+    {DYNAMAP_FIELD(ever_free.forget_frames), X, "frames", 1, 255, kClosed, kClosed, "hit frames in a row to stop being ever free"},
     // Cleaner and its history.
     {DYNAMAP_FIELD(cleaner.frames), X, "frames", 1, kMaxBoxHistory, kClosed, kClosed, "f: past boxes per dynamic track that are cleared"},
     {DYNAMAP_FIELD(cleaner.inflation), X, "", 1, kInf, kClosed, kOpen, "horizontal growth of a cleared box about its centre"},

@@ -43,10 +43,12 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   const float floor_top = config.ground_height + config.refiner.floor_margin;
   Status s = map_.init(config.map);
   if (ok(s)) s = detector_.init(config.detector);
+  if (ok(s)) s = fragments_.init(config.fragments);
   if (ok(s)) s = refiner_.init(config.refiner, config.ground_height);
   if (ok(s)) s = tracker_.init(config.tracker, config.camera.width, config.camera.height);
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
   if (ok(s)) s = cleaner_.init(config.cleaner, floor_top);
+  if (ok(s)) s = ever_free_.init(config.ever_free, config.ground_height);
   if (ok(s)) s = markov_.init(config.predictor);
   if (ok(s)) s = far_field_.init(config.far_field, config.ground_height);
   if (ok(s)) {
@@ -143,6 +145,11 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
     detections_.clear();
   }
   counters_.detections_dropped += detector_.last_stats().detections_dropped;
+  (void)fragments_.join(detections_);
+  // Where the camera has seen free space: dynamic evidence for each detection (tracker.md).
+  if (ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera))) {
+    ever_free_.annotate(detections_.data(), detections_.size());
+  }
   work.detections = detections_.size();
   lap(Stage::kDetection);
 

@@ -35,13 +35,14 @@ Status validate_detection(const Detection& d) noexcept {
 
 Status TrackerConfig::validate() const noexcept {
   if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
-  const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
-                    overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
-                    std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
-                    std::isfinite(noise_reference_depth) && noise_reference_depth >= 0.f &&
-                    std::isfinite(max_extent_change_ratio) && std::isfinite(max_round_footprint) &&
-                    max_round_footprint >= 0.f && std::isfinite(max_coast_time) &&
-                    max_coast_time > 0.f &&
+  const bool good =
+      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
+      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
+      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
+      noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
+      std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
+      std::isfinite(max_coast_time) && max_coast_time > 0.f && std::isfinite(ever_free_share) &&
+      ever_free_share > 0.f && ever_free_share <= 1.f &&
 
                     history_length + 1 <= kMaxTrackHistory &&
                     continuity.displacement_frames + 1 <= history_length &&
@@ -143,6 +144,7 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.kf.reset(Eigen::Vector4f(m.center.x(), m.center.y(), 0.f, 0.f), config_.kalman);
   t.voter.reset();
   t.dynamic_streak = 0;
+  t.ever_free_streak = 0;
   t.every_vote_dynamic = true;
   t.was_dynamic = false;
   t.label = false;
@@ -203,7 +205,19 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   t.out.missed_frames = 0;
   ++t.out.hits;
   t.out.last_seen = stamp;
+  count_ever_free(t, det);
   vote(t);
+}
+
+void Tracker::count_ever_free(Track& t, const Detection& det) noexcept {
+  t.ever_free_streak = det.ever_free >= config_.ever_free_share ? t.ever_free_streak + 1 : 0;
+}
+
+bool Tracker::ever_free_label(const Track& t) const noexcept {
+  if (config_.ever_free_frames == 0 || t.ever_free_streak < config_.ever_free_frames) return false;
+  const ContinuityConfig& cc = config_.continuity;
+  return !cc.check_size || ((t.size.array() >= cc.min_size.array()).all() &&
+                            (t.size.array() <= cc.max_size.array()).all());
 }
 
 void Tracker::update_size(Track& t, const Measurement& m) noexcept {
@@ -251,7 +265,11 @@ void Tracker::vote(Track& t) noexcept {
   std::size_t span = config_.continuity.displacement_frames;
   const std::size_t early_span = config_.early_displacement_frames;
   if (n < span + 2 && early_span > 0 && n >= 2 * early_span + 1) span = early_span;
-  if (!continuity_score(ordered.data(), n, span, &c_con)) return;
+  if (!continuity_score(ordered.data(), n, span, &c_con)) {
+    t.label = ever_free_label(t);  // no vote yet: only the ever-free evidence
+    if (t.label) t.was_dynamic = true;
+    return;
+  }
   t.out.continuity = c_con;
   const float speed = t.kf.velocity().norm();
   const ContinuityFilter filter(config_.continuity);
@@ -261,13 +279,12 @@ void Tracker::vote(Track& t) noexcept {
   if (!dynamic_vote) t.every_vote_dynamic = false;
   const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
                      (t.every_vote_dynamic || t.was_dynamic);
-  t.label = t.voter.dynamic() || early;
+  t.label = t.voter.dynamic() || early || ever_free_label(t);
   if (t.label) t.was_dynamic = true;
 }
 
-Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_map_camera,
-                       Stamp stamp) noexcept {
-  // --- validate everything before touching any state ---
+Status Tracker::check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                            Stamp stamp) const noexcept {
   if (count > 0 && dets == nullptr) return Status::kNullData;
   if (count > kMaxDetections) return Status::kCapacityExceeded;
   const Status pose_status = validate_pose(T_map_camera);
@@ -277,11 +294,38 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     const Status s = validate_detection(dets[i]);
     if (!ok(s)) return s;
   }
+  return Status::kOk;
+}
 
+Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                       Stamp stamp) noexcept {
+  const Status bad = check_input(dets, count, T_map_camera, stamp);  // before any change
+  if (!ok(bad)) return bad;
   const Eigen::Vector3f camera = T_map_camera.translation;
-  const float dt = has_stamp_ ? seconds_between(last_stamp_, stamp) : 0.f;
+  predict_tracks(stamp);
+  for (std::size_t i = 0; i < count; ++i) frame_.meas[i] = measure(dets[i], camera, nullptr);
+  frame_.det_used.fill(false);
+  frame_.track_used.fill(false);
+  associate(count);
+  for (std::size_t p = 0; p < frame_.pair_count; ++p) {
+    const Pair& pr = frame_.pairs[p];
+    if (frame_.det_used[pr.det] || frame_.track_used[pr.slot]) continue;
+    frame_.det_used[pr.det] = true;
+    frame_.track_used[pr.slot] = true;
+    correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
+    tracks_[pr.slot].out.detection = pr.det;
+  }
+  coast_unmatched();
+  start_tracks(dets, count, stamp);
+  last_stamp_ = stamp;
+  has_stamp_ = true;
+  publish();
+  return Status::kOk;
+}
 
-  // --- tracks unmeasured for longer than max_coast_time end; the rest are predicted ---
+void Tracker::predict_tracks(Stamp stamp) noexcept {
+  // Tracks unmeasured for longer than max_coast_time end; the rest are predicted.
+  const float dt = has_stamp_ ? seconds_between(last_stamp_, stamp) : 0.f;
   for (Track& t : tracks_) {
     if (!t.active) continue;
     if (seconds_between(t.last_measured_stamp, stamp) > config_.max_coast_time) {
@@ -292,20 +336,14 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     if (dt > 0.f) (void)t.kf.predict(dt);
     ++t.out.age;
   }
+}
 
-  // --- candidate pairs in the top view, closest centre first, one-to-one ---
-  std::array<Measurement, kMaxDetections> meas;
-  for (std::size_t i = 0; i < count; ++i) meas[i] = measure(dets[i], camera, nullptr);
-
-  struct Pair {
-    float distance;
-    std::uint8_t det;
-    std::uint8_t slot;
-  };
-  std::array<Pair, kMaxDetections * kMaxTracks> pairs;
-  std::size_t pair_count = 0;
+void Tracker::associate(std::size_t count) noexcept {
+  // Candidate pairs in the top view, closest centre first (taken one-to-one by the caller).
+  frame_.pair_count = 0;
   for (std::size_t i = 0; i < count; ++i) {
-    const Box3 det_box = Box3::from_center_size(meas[i].center, meas[i].size);
+    const Measurement& m = frame_.meas[i];
+    const Box3 det_box = Box3::from_center_size(m.center, m.size);
     const Eigen::Vector3f ds = det_box.size();
     const float det_area = ds.x() * ds.y();
     for (std::size_t s = 0; s < kMaxTracks; ++s) {
@@ -314,38 +352,30 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
       const Eigen::Vector2f predicted = t.kf.position();
       const Box3 track_box =
           Box3::from_center_size(Eigen::Vector3f(predicted.x(), predicted.y(), t.z_center), t.size);
-      const float distance = (meas[i].center.head<2>() - predicted).norm();
+      const float distance = (m.center.head<2>() - predicted).norm();
       const float overlap = overlap_area_xy(det_box, track_box);
       const bool overlapping =
           det_area > 0.f ? overlap >= config_.overlap_threshold * det_area : false;
       if (overlapping || distance < config_.centre_gate) {
-        pairs[pair_count++] =
+        frame_.pairs[frame_.pair_count++] =
             Pair{distance, static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(s)};
       }
     }
   }
-  std::sort(pairs.begin(), pairs.begin() + static_cast<std::ptrdiff_t>(pair_count),
+  std::sort(frame_.pairs.begin(),
+            frame_.pairs.begin() + static_cast<std::ptrdiff_t>(frame_.pair_count),
             [](const Pair& a, const Pair& b) { return a.distance < b.distance; });
+}
 
-  std::array<bool, kMaxDetections> det_used{};
-  std::array<bool, kMaxTracks> track_used{};
-  for (std::size_t p = 0; p < pair_count; ++p) {
-    const Pair& pr = pairs[p];
-    if (det_used[pr.det] || track_used[pr.slot]) continue;
-    det_used[pr.det] = true;
-    track_used[pr.slot] = true;
-    correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
-    tracks_[pr.slot].out.detection = pr.det;
-  }
-
-  // --- unmatched tracks coast, then are dropped ---
+void Tracker::coast_unmatched() noexcept {
   for (std::size_t s = 0; s < kMaxTracks; ++s) {
     Track& t = tracks_[s];
-    if (!t.active || track_used[s]) continue;
+    if (!t.active || frame_.track_used[s]) continue;
     ++t.out.missed_frames;
     t.out.detection = -1;
     // An early label needs an unbroken run of votes: a gap withdraws it.
     t.dynamic_streak = 0;
+    t.ever_free_streak = 0;
     if (t.voter.votes() > 0) t.every_vote_dynamic = false;
     t.label = t.voter.dynamic();
     if (t.out.missed_frames > config_.max_missed_frames) {
@@ -353,27 +383,27 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
       ++dropped_tracks_;
     }
   }
+}
 
-  // --- unmatched detections start tracks while slots last ---
+void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept {
+  // Unmatched detections start tracks while slots last; the rest are refused and counted.
   std::size_t free_slot = 0;
   for (std::size_t i = 0; i < count; ++i) {
-    if (det_used[i]) continue;
-    while (free_slot < kMaxTracks && (tracks_[free_slot].active || track_used[free_slot])) {
+    if (frame_.det_used[i]) continue;
+    while (free_slot < kMaxTracks && (tracks_[free_slot].active || frame_.track_used[free_slot])) {
       ++free_slot;
     }
     if (free_slot == kMaxTracks) {
       ++refused_tracks_;
       continue;
     }
-    start_track(tracks_[free_slot], meas[i], stamp);
-    tracks_[free_slot].out.detection = static_cast<std::int32_t>(i);
+    Track& t = tracks_[free_slot];
+    start_track(t, frame_.meas[i], stamp);
+    t.out.detection = static_cast<std::int32_t>(i);
+    count_ever_free(t, dets[i]);
+    t.label = ever_free_label(t);
     ++free_slot;
   }
-
-  last_stamp_ = stamp;
-  has_stamp_ = true;
-  publish();
-  return Status::kOk;
 }
 
 void Tracker::publish() noexcept {

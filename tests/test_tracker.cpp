@@ -156,6 +156,31 @@ TEST(TrackerAssociation, ATimeGapLongerThanMaxCoastTimeEndsTheTrack) {
   EXPECT_EQ(bad.validate(), Status::kInvalidArgument);
 }
 
+// A person walking out of the image's right border and back: for 10 frames only a shrinking
+// slice of them is visible (the box keeps its left edge, loses up to 70 % of its width and
+// touches the border), then they are whole again. One id throughout.
+TEST(TrackerAssociation, PersonCutByTheBorderForTenFramesKeepsOneId) {
+  auto tracker = make_tracker();
+  std::vector<std::uint32_t> ids;
+  for (int f = 0; f < 40; ++f) {
+    const float y = -0.5f + static_cast<float>(f) / 30.f;  // 1 m/s
+    Eigen::Vector3f size = kPerson;
+    Eigen::Vector3f center(3.f, y, 0.85f);
+    ImageBox image_box = kInView;
+    if (f >= 20 && f < 30) {
+      const float cut = 0.07f * static_cast<float>(f - 19);  // 0.07 .. 0.7 of the width
+      size.y() = kPerson.y() * (1.f - cut);
+      center.y() = y - 0.5f * kPerson.y() * cut;  // the far side (towards +y) is cut off
+      image_box = ImageBox{500, 100, 639, 400};
+    }
+    const Detection d = detection(center, size, image_box);
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), static_cast<Stamp>(f + 1) * kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u) << "frame " << f;
+    ids.push_back(tracker->obstacle(0).id);
+  }
+  for (std::uint32_t id : ids) EXPECT_EQ(id, ids.front());
+}
+
 TEST(TrackerAssociation, NewTargetGetsNewIdAndIdsAreNeverReused) {
   auto tracker = make_tracker();
   Stamp stamp = 0;
@@ -313,6 +338,29 @@ TEST(TrackerLabels, SizeCheckKeepsImplausibleSizesStatic) {
     EXPECT_EQ(run_target(*checked, 60, moving, size).first_dynamic, -1) << size.transpose();
     auto unchecked = make_tracker(unchecked_config);
     EXPECT_GE(run_target(*unchecked, 60, moving, size).first_dynamic, 0) << size.transpose();
+  }
+}
+
+// On real depth a box spanning two people and the background between them is over 1 m wide:
+// it never votes dynamic, however steadily it moves, and no ever-free evidence labels it.
+TEST(TrackerLabels, ABoxWiderThanOnePersonPairIsNeverDynamic) {
+  const Eigen::Vector3f pair_wide(0.5f, 1.2f, 1.7f);
+  auto tracker = make_tracker();
+  for (int f = 0; f < 60; ++f) {
+    Detection d = detection(Eigen::Vector3f(3.f + f / 30.f, 0.f, 0.85f), pair_wide);
+    d.ever_free = 1.f;
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), static_cast<Stamp>(f + 1) * kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    EXPECT_FALSE(tracker->obstacle(0).dynamic) << "frame " << f;
+  }
+}
+
+TEST(TrackerRobustness, EverFreeShareOutOfRangeIsRefused) {
+  for (float bad : {0.f, 1.5f, std::numeric_limits<float>::quiet_NaN()}) {
+    TrackerConfig c;
+    c.ever_free_share = bad;
+    Tracker t;
+    EXPECT_EQ(t.init(c), Status::kInvalidArgument) << bad;
   }
 }
 

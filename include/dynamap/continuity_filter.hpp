@@ -26,12 +26,13 @@ struct ContinuityConfig {
   std::size_t static_votes = 4;          ///< <= this many dynamic votes -> static
   /// Plausibility test on the obstacle size: a frame votes dynamic only when min_size <= size <=
   /// max_size on every axis. On by default with upper limits only: the pieces of wall that slide
-  /// as the camera moves are as tall as the wall in view (2.5 m), people are not; partly hidden
-  /// people have small boxes, so there is no lower limit (docs/tracker.md, "Static or
-  /// dynamic"). Raise max_size to track larger movers (vehicles), or turn it off.
+  /// as the camera moves are as tall as the wall in view (2.5 m), people are not; a box wider
+  /// than 1 m spans two people or a person and the background between them (real depth);
+  /// partly hidden people have small boxes, so there is no lower limit (docs/tracker.md,
+  /// "Static or dynamic"). Raise max_size to track larger movers (vehicles), or turn it off.
   bool check_size = true;
   Eigen::Vector3f min_size{0.f, 0.f, 0.f};
-  Eigen::Vector3f max_size{2.0f, 2.0f, 2.2f};
+  Eigen::Vector3f max_size{1.0f, 1.0f, 2.2f};
 
   /// kInvalidArgument unless n >= 1, 0 < c <= kMaxVoteWindow, static_votes < dynamic_votes <= c,
   /// thresholds are finite and 0 <= min_size <= max_size.

@@ -12,6 +12,9 @@ struct Detection {
   ImageBox image_box;      ///< where it was seen in the depth image (for the "fully in view" test)
   float near_depth = 0.f;  ///< camera-frame depth of the nearest surface (metres)
   bool refined = false;    ///< true when `box` was tightened to occupied voxels
+  /// Share of this frame's surface cells in the raw box that the camera had observed free for a
+  /// while (EverFreeGrid; 0 when not computed): the obstacle moved into empty space.
+  float ever_free = 0.f;
 };
 
 }  // namespace dynamap

@@ -143,10 +143,12 @@ class Pipeline {
 
   OccupancyMap map_{};
   UMapDetector detector_{};
+  DetectionRefiner fragments_{};
   MapRefiner refiner_{};
   Tracker tracker_{};
   CleanHistory history_{};
   DynamicRegionCleaner cleaner_{};
+  EverFreeGrid ever_free_{};
   MarkovPredictor markov_{};
   LinearPredictor linear_{};
 

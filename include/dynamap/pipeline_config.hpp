@@ -7,8 +7,10 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "dynamap/detection_refiner.hpp"
 #include "dynamap/dynamic_region_cleaner.hpp"
 #include "dynamap/far_field_layer.hpp"
+#include "dynamap/ever_free_grid.hpp"
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"
@@ -52,9 +54,11 @@ struct PipelineConfig {
   CameraIntrinsics camera{};
   OccupancyMapConfig map{};
   UMapDetectorConfig detector{};
+  DetectionRefinerConfig fragments{};  ///< joining the detector's fragments of one obstacle
   MapRefinerConfig refiner{};
   TrackerConfig tracker{};
   DynamicRegionCleanerConfig cleaner{};
+  EverFreeConfig ever_free{};  ///< ever-free space, the tracker's dynamic evidence
   MarkovPredictorConfig predictor{};
   /// Far-field top-view layer the Markov predictor reads beyond the map's range (not the linear
   /// baseline); its update is Stage::kFarField.

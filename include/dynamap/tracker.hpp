@@ -124,6 +124,13 @@ struct TrackerConfig {
   /// (docs/tracker.md, "Measurement"). The per-frame footprint of a track whose size is not frozen
   /// yet is left alone: it is detection noise, not a re-estimate. No value to validate.
   bool compensate_size_steps = true;
+  /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
+  /// observed free (Detection::ever_free >= ever_free_share) on this many measured frames in a
+  /// row is labelled dynamic, whatever its votes: it has moved into empty space. Its size must
+  /// pass the continuity filter's size check. A frame without that evidence ends the run and
+  /// the label falls back to the votes (docs/tracker.md, "Static or dynamic").
+  std::size_t ever_free_frames = 3;
+  float ever_free_share = 0.5f;  ///< share of the detection's surface cells (0, 1]
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -197,9 +204,10 @@ class Tracker {
     Eigen::Vector3f corrected_with = Eigen::Vector3f::Zero();  // size behind the last correction
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
     std::size_t in_view_frames = 0;
-    std::size_t dynamic_streak = 0;  // consecutive dynamic votes on consecutive frames
-    bool every_vote_dynamic = true;  // no static vote and no missed frame since the first vote
-    bool was_dynamic = false;        // labelled dynamic at some time
+    std::size_t dynamic_streak = 0;    // consecutive dynamic votes on consecutive frames
+    std::size_t ever_free_streak = 0;  // measured frames in a row in ever-free space
+    bool every_vote_dynamic = true;    // no static vote and no missed frame since the first vote
+    bool was_dynamic = false;          // labelled dynamic at some time
     bool label = false;
     bool active = false;
   };
@@ -212,6 +220,25 @@ class Tracker {
     bool in_view;
     bool near_enough;  // near enough for size fixing
   };
+  struct Pair {  // a candidate (detection, track) association
+    float distance;
+    std::uint8_t det;
+    std::uint8_t slot;
+  };
+  struct FrameScratch {  // one update's working memory (kept here: no stack arrays of this size)
+    std::array<Measurement, kMaxDetections> meas;
+    std::array<Pair, kMaxDetections * kMaxTracks> pairs;
+    std::size_t pair_count = 0;
+    std::array<bool, kMaxDetections> det_used{};
+    std::array<bool, kMaxTracks> track_used{};
+  };
+  // The steps of update(): input checks, prediction, candidate pairs, coasting, new tracks.
+  Status check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                     Stamp stamp) const noexcept;
+  void predict_tracks(Stamp stamp) noexcept;
+  void associate(std::size_t count) noexcept;
+  void coast_unmatched() noexcept;
+  void start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept;
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
                       const Eigen::Vector3f* fixed_size) const noexcept;
   bool fully_in_view(const ImageBox& b) const noexcept;
@@ -223,6 +250,8 @@ class Tracker {
   // the continuity filter's vote with the label.
   void update_size(Track& t, const Measurement& m) noexcept;
   void vote(Track& t) noexcept;
+  void count_ever_free(Track& t, const Detection& det) noexcept;
+  bool ever_free_label(const Track& t) const noexcept;
   void publish() noexcept;
 
   TrackerConfig config_{};
@@ -231,6 +260,7 @@ class Tracker {
   std::array<Track, kMaxTracks> tracks_{};
   std::array<TrackedObstacle, kMaxTracks> output_{};
   std::array<std::uint8_t, kMaxTracks> output_slot_{};
+  FrameScratch frame_{};
   std::size_t output_count_ = 0;
   std::uint32_t next_id_ = 1;
   Stamp last_stamp_ = 0;
