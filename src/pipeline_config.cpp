@@ -132,6 +132,12 @@ ConfigError validate(const PipelineConfig& c) noexcept {
             "must be in 1..kMaxPipelineVoxelVisitsPerFrame (2'000'000)");
   k.require(c.map.free_ray_early_stop >= 0, "map.free_ray_early_stop",
             "must be >= 0 (0: exact walk from the camera)");
+  k.require(c.map.carve_tiles >= 0 && c.map.carve_tiles <= kMaxCarveTiles, "map.carve_tiles",
+            "must be in 0..kMaxCarveTiles (8; 0: one walk over all rays)");
+  k.require(c.map.threads >= 1 && c.map.threads <= kMaxMapThreads, "map.threads",
+            "must be in 1..kMaxMapThreads (4)");
+  k.require(c.map.threads == 1 || c.map.carve_tiles > 0, "map.threads",
+            "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
 
   // Detector.
   k.require(c.detector.bins >= 1 && c.detector.bins <= kMaxUMapBins, "detector.bins",

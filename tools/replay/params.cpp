@@ -132,6 +132,8 @@ const std::vector<Param>& params() {
       DYNAMAP_PARAM(map.max_voxel_visits_per_frame),
       DYNAMAP_PARAM(map.merge_rays_per_voxel),
       DYNAMAP_PARAM(map.free_ray_early_stop),
+      DYNAMAP_PARAM(map.carve_tiles),
+      DYNAMAP_PARAM(map.threads),
       DYNAMAP_PARAM(detector.bins),
       DYNAMAP_PARAM(detector.d_min),
       DYNAMAP_PARAM(detector.d_max),
