@@ -1,6 +1,7 @@
 #include "dynamap/occupancy_map.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -67,6 +68,14 @@ inline bool finite_positive(float x) noexcept {
 }  // namespace
 
 OccupancyMap::OccupancyMap() noexcept = default;
+
+namespace {
+std::atomic<OccupancyMap::WorkerHook> g_worker_hook{nullptr};
+}  // namespace
+
+void OccupancyMap::set_worker_hook(WorkerHook hook) noexcept {
+  g_worker_hook.store(hook, std::memory_order_relaxed);
+}
 
 Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   const auto prob_ok = [](float p) { return std::isfinite(p) && p > 0.f && p < 1.f; };
@@ -496,9 +505,11 @@ OccupancyMap::EndPointConstants OccupancyMap::end_point_constants() const noexce
 /// operations in the same order, branch-free (Eigen maps them to SSE/NEON element-wise
 /// operations; the selects are exact arithmetic and floor_lanes is exact), so the end voxels
 /// are bit-identical to end_point()'s, which pass 2 uses.
-inline OccupancyMap::EndLanes OccupancyMap::end_lanes(const EndPointConstants& c,
-                                                      const std::uint16_t* row, int v, int k0,
-                                                      int lanes) const noexcept {
+// Always inlined: called once per packet, and its lanes feed the caller's loop in registers.
+EIGEN_ALWAYS_INLINE OccupancyMap::EndLanes OccupancyMap::end_lanes(const EndPointConstants& c,
+                                                                   const std::uint16_t* row, int v,
+                                                                   int k0,
+                                                                   int lanes) const noexcept {
   const int margin = config_.pixel_margin, stride = config_.pixel_stride;
   std::array<std::uint16_t, 4> raw{};
   const std::uint16_t* px = row + margin + k0 * stride;
@@ -688,6 +699,9 @@ void OccupancyMap::compute_end_codes(unsigned member) noexcept {
       Eigen::Array4i::Constant((key_base_[1] >> kBlockBits) - grid.origin[1]);
   const Eigen::Array4i off_z =
       Eigen::Array4i::Constant((key_base_[2] >> kBlockBits) - grid.origin[2]);
+  const Eigen::Array4i dim_x = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[0]));
+  const Eigen::Array4i dim_y = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[1]));
+  const Eigen::Array4i dim_z = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[2]));
   for (int j = j0; j < j1; ++j) {
     const int v = margin + j * stride;
     const std::uint16_t* row = team_depth_->row(v);
@@ -698,19 +712,14 @@ void OccupancyMap::compute_end_codes(unsigned member) noexcept {
       const int lanes = std::min(4, columns - k0);
       const EndLanes e = end_lanes(c, row, v, k0, lanes);
       const Eigen::Array4i gi = e.blk_x + off_x, gj = e.blk_y + off_y, gk = e.blk_z + off_z;
+      const Eigen::Array4i cell = gi + dim_x * (gj + dim_y * gk);
+      const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;
+      const Eigen::Array<bool, 4, 1> inside =
+          (gi.min(gj).min(gk) >= 0) && (gi < dim_x) && (gj < dim_y) && (gk < dim_z);
       for (int l = 0; l < lanes; ++l) {
-        std::uint32_t code = kSkipCode;
-        if (e.too_near[l] == 0) {
-          const auto ui = static_cast<std::uint32_t>(gi[l]), uj = static_cast<std::uint32_t>(gj[l]),
-                     uk = static_cast<std::uint32_t>(gk[l]);
-          code = kOutsideCode;
-          if (ui < grid.dim[0] && uj < grid.dim[1] && uk < grid.dim[2]) {
-            const std::uint32_t cell = ui + grid.dim[0] * (uj + grid.dim[1] * uk);
-            code = (cell << 10) | (static_cast<std::uint32_t>(e.hit[l] != 0) << 9) |
-                   static_cast<std::uint32_t>(e.in_block[l]);
-          }
-        }
-        codes[k0 + l] = code;
+        codes[k0 + l] = e.too_near[l] != 0 ? kSkipCode
+                        : inside[l]        ? static_cast<std::uint32_t>(code[l])
+                                           : kOutsideCode;
         kept[k0 + l] = 0;
       }
     }
@@ -1176,7 +1185,7 @@ void OccupancyMap::carve_tiles_in_team(const DepthView& depth) noexcept {
   team_.run(
       [](void* self, unsigned member) {
         auto& map = *static_cast<OccupancyMap*>(self);
-        if (map.worker_hook_ != nullptr) map.worker_hook_(member);
+        if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
         const auto count = static_cast<std::uint32_t>(map.config_.carve_tiles);
         for (std::uint32_t t = map.next_tile_.fetch_add(1, std::memory_order_relaxed); t < count;
              t = map.next_tile_.fetch_add(1, std::memory_order_relaxed)) {

@@ -903,7 +903,7 @@ TEST(OccupancyMap, EarlyStopRerunsAreBitIdentical) {
 std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int frames,
                                           OccupancyMap::WorkerHook hook = nullptr) {
   auto map = make_map(cfg);
-  map->set_worker_hook(hook);
+  OccupancyMap::set_worker_hook(hook);
   const CameraIntrinsics cam = small_camera(320, 240);
   const Scene scene = regression_room();
   std::uint64_t h = 0;
@@ -927,6 +927,7 @@ std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int fra
     h = h * 1000003u + updated;
     h = h * 1000003u + map->checksum();
   }
+  OccupancyMap::set_worker_hook(nullptr);
   return h;
 }
 

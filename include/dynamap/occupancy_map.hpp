@@ -130,10 +130,10 @@ class OccupancyMap {
   /// members. kInvalidArgument (map unchanged) when inconsistent; a thread creation error as
   /// platform::WorkerTeam::start() reports it (map not initialised).
   [[nodiscard]] Status init(const OccupancyMapConfig& config) noexcept;
-  /// Test builds only: called by each team member (0 = the integrating thread) when it starts
-  /// its share of a frame's carving, e.g. to delay one worker. nullptr (default) for none.
+  /// Tests only: called by each team member (0 = the integrating thread) of every map when it
+  /// starts its share of a frame's carving, e.g. to delay one worker. nullptr (default): none.
   using WorkerHook = void (*)(unsigned member);
-  void set_worker_hook(WorkerHook hook) noexcept { worker_hook_ = hook; }
+  static void set_worker_hook(WorkerHook hook) noexcept;
 
   /// Integrates one depth frame taken at T_map_camera. On any bad input returns its Status and
   /// changes nothing: kOutOfRange when the camera lies beyond max_abs_translation() (see
@@ -402,7 +402,6 @@ class OccupancyMap {
 
   // --- tiled carving (carve_tiles > 0) ---
   platform::WorkerTeam team_{};
-  WorkerHook worker_hook_ = nullptr;
   const DepthView* team_depth_ = nullptr;  ///< the frame being carved, for the team's task
   std::atomic<std::uint32_t> next_tile_{0};
   std::array<TileScratch, kMaxCarveTiles> tiles_{};
