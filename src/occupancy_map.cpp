@@ -476,6 +476,7 @@ struct OccupancyMap::EndPointConstants {
   float scale, inv_res, max_depth;
   Eigen::Array4f half_x, half_y, half_z, origin_x, origin_y, origin_z;
   Eigen::Array4i base_x, base_y, base_z;
+  int margin, stride;
 };
 
 OccupancyMap::EndPointConstants OccupancyMap::end_point_constants() const noexcept {
@@ -495,7 +496,9 @@ OccupancyMap::EndPointConstants OccupancyMap::end_point_constants() const noexce
           Eigen::Array4f::Constant(origin4_[2]),
           Eigen::Array4i::Constant(key_base_[0]),
           Eigen::Array4i::Constant(key_base_[1]),
-          Eigen::Array4i::Constant(key_base_[2])};
+          Eigen::Array4i::Constant(key_base_[2]),
+          config_.pixel_margin,
+          config_.pixel_stride};
 }
 
 /// End voxels of four sampled pixels of row v, columns k0 .. k0 + 3 (lanes past the row's end
@@ -507,25 +510,29 @@ OccupancyMap::EndPointConstants OccupancyMap::end_point_constants() const noexce
 /// are bit-identical to end_point()'s, which pass 2 uses.
 // Always inlined: called once per packet, and its lanes feed the caller's loop in registers.
 EIGEN_ALWAYS_INLINE OccupancyMap::EndLanes OccupancyMap::end_lanes(const EndPointConstants& c,
-                                                                   const std::uint16_t* row, int v,
+                                                                   const std::uint16_t* row,
+                                                                   const RowDirection& row_dir,
                                                                    int k0,
                                                                    int lanes) const noexcept {
-  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
   std::array<std::uint16_t, 4> raw{};
-  const std::uint16_t* px = row + margin + k0 * stride;
-  for (int l = 0; l < 4; ++l)
-    raw[static_cast<std::size_t>(l)] = px[std::min(l, lanes - 1) * stride];
+  const std::uint16_t* px = row + c.margin + k0 * c.stride;
+  if (lanes == 4) {
+    for (int l = 0; l < 4; ++l) raw[static_cast<std::size_t>(l)] = px[l * c.stride];
+  } else {
+    for (int l = 0; l < 4; ++l) {
+      raw[static_cast<std::size_t>(l)] = px[std::min(l, lanes - 1) * c.stride];
+    }
+  }
   const Eigen::Array4i raw_i{raw[0], raw[1], raw[2], raw[3]};
   const Eigen::Array4f raw_f = raw_i.cast<float>();  // exact: raw < 2^16
   // Free rays (no return, or beyond max_depth) are cast to max_depth. Select-free form:
   // (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
   const Eigen::Array4f z_ray =
       (raw_f * c.scale + (1.f - raw_f).max(0.f) * c.max_depth).min(c.max_depth);
-  const Eigen::Array4f row_dir = row_direction(v);
   const auto k = static_cast<std::size_t>(k0);
-  Eigen::Array4f off_x = (Eigen::Array4f::Map(&sampled_dir_x_[k]) + row_dir[0]) * z_ray;
-  Eigen::Array4f off_y = (Eigen::Array4f::Map(&sampled_dir_y_[k]) + row_dir[1]) * z_ray;
-  Eigen::Array4f off_z = (Eigen::Array4f::Map(&sampled_dir_z_[k]) + row_dir[2]) * z_ray;
+  Eigen::Array4f off_x = (Eigen::Array4f::Map(&sampled_dir_x_[k]) + row_dir.x) * z_ray;
+  Eigen::Array4f off_y = (Eigen::Array4f::Map(&sampled_dir_y_[k]) + row_dir.y) * z_ray;
+  Eigen::Array4f off_z = (Eigen::Array4f::Map(&sampled_dir_z_[k]) + row_dir.z) * z_ray;
   // For floats o - h > 0 exactly when o > h, as in end_point().
   const Eigen::Array4f outside =
       (off_x.abs() - c.half_x).max(off_y.abs() - c.half_y).max(off_z.abs() - c.half_z);
@@ -640,9 +647,10 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   std::int32_t current_key = -1;
   for (int v = margin; v < cam_->height - margin; v += stride) {
     const std::uint16_t* row = depth.row(v);
+    const RowDirection row_dir = row_direction_lanes(v);
     for (int k0 = 0; k0 < columns; k0 += 4) {
       const int lanes = std::min(4, columns - k0);
-      const EndLanes e = end_lanes(c, row, v, k0, lanes);
+      const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
       const Eigen::Array4i key =
           e.blk_x + (e.blk_y + e.blk_z.shiftLeft<kKeyBlockBits>()).shiftLeft<kKeyBlockBits>();
       for (int l = 0; l < lanes; ++l) {
@@ -705,12 +713,13 @@ void OccupancyMap::compute_end_codes(unsigned member) noexcept {
   for (int j = j0; j < j1; ++j) {
     const int v = margin + j * stride;
     const std::uint16_t* row = team_depth_->row(v);
+    const RowDirection row_dir = row_direction_lanes(v);
     const std::size_t first = static_cast<std::size_t>(j) * static_cast<std::size_t>(columns);
     std::uint32_t* codes = &end_codes_[first];
     std::uint8_t* kept = &end_kept_[first];
     for (int k0 = 0; k0 < columns; k0 += 4) {
       const int lanes = std::min(4, columns - k0);
-      const EndLanes e = end_lanes(c, row, v, k0, lanes);
+      const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
       const Eigen::Array4i gi = e.blk_x + off_x, gj = e.blk_y + off_y, gk = e.blk_z + off_z;
       const Eigen::Array4i cell = gi + dim_x * (gj + dim_y * gk);
       const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;

@@ -319,8 +319,17 @@ class OccupancyMap {
   struct EndLanes {
     Eigen::Array4i too_near, hit, blk_x, blk_y, blk_z, in_block;
   };
-  EndLanes end_lanes(const EndPointConstants& c, const std::uint16_t* row, int v, int k0,
-                     int lanes) const noexcept;
+  /// A row's ray direction, one broadcast array per axis.
+  struct RowDirection {
+    Eigen::Array4f x, y, z;
+  };
+  RowDirection row_direction_lanes(int v) const noexcept {
+    const Eigen::Array4f d = row_direction(v);
+    return {Eigen::Array4f::Constant(d[0]), Eigen::Array4f::Constant(d[1]),
+            Eigen::Array4f::Constant(d[2])};
+  }
+  EndLanes end_lanes(const EndPointConstants& c, const std::uint16_t* row,
+                     const RowDirection& row_dir, int k0, int lanes) const noexcept;
   struct EndMarkStamps {
     std::uint16_t queued, hit;
     bool merge;
