@@ -953,6 +953,14 @@ TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
   const std::uint64_t one = integrate_walk_with_updates(tiny, 12);
   tiny.threads = 3;
   EXPECT_EQ(integrate_walk_with_updates(tiny, 12), one);
+  // With the ray cap below the sampled pixels, pass 1 runs on one thread (the cap is a
+  // pixel-order rule); pass 2 still on the team.
+  OccupancyMapConfig capped;
+  capped.carve_tiles = 4;
+  capped.max_rays_per_frame = 2000;
+  const std::uint64_t capped_one = integrate_walk_with_updates(capped, 6);
+  capped.threads = 2;
+  EXPECT_EQ(integrate_walk_with_updates(capped, 6), capped_one);
 }
 
 TEST(OccupancyMap, TiledCarvingChangesOnlyTheEarlyStoppedMisses) {
