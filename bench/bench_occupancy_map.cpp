@@ -207,6 +207,37 @@ BENCHMARK(BM_Dynamap)
     ->Args({0, 0})
     ->Unit(benchmark::kMillisecond);
 
+/// The map's worker team (OccupancyMapConfig::threads) with tiled carving, next to the one-walk
+/// carving (tiles 0) in the same run; early stop and the default visit cap, as the pipeline
+/// runs it. Wall time (UseRealTime): the helpers' CPU time is not the caller's.
+void BM_DynamapThreads(benchmark::State& state) {
+  const Dataset& d = dataset();
+  OccupancyMapConfig cfg = d.config;
+  cfg.free_ray_early_stop = kEarlyStop;
+  cfg.carve_tiles = static_cast<int>(state.range(0));
+  cfg.threads = static_cast<int>(state.range(1));
+  auto map = std::make_unique<OccupancyMap>();
+  if (!dynamap::ok(map->init(cfg))) state.SkipWithError("init failed");
+  dynamap::Stamp t = 0;
+  std::size_t i = 0, visits = 0;
+  for (auto _ : state) {
+    const Frame& f = d.frames[i++ % d.frames.size()];
+    const dynamap::Status s = map->integrate(d.view(f), d.cam, f.pose, t += kFrameNs);
+    benchmark::DoNotOptimize(s);
+    visits += map->last_stats().voxel_visits;
+  }
+  state.counters["visits"] =
+      benchmark::Counter(static_cast<double>(visits), benchmark::Counter::kAvgIterations);
+}
+BENCHMARK(BM_DynamapThreads)
+    ->ArgNames({"tiles", "threads"})
+    ->Args({0, 1})
+    ->Args({4, 1})
+    ->Args({4, 2})
+    ->Args({4, 4})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
 /// Deliberately bad frame: uniform random depths (0.5-5 m) defeat ray merging, so the visit cap
 /// (default 1e6) is what bounds the time.
 void BM_DynamapWorstCase(benchmark::State& state) {

@@ -3,6 +3,12 @@
 // frames. Prints a table; timing goals are judged from it, never in unit tests.
 //
 //   ./build/release/bench/bench_pipeline [frames=300] [passes=3] [--wall]
+//       [--threads=1,2,4 [--tiles=4]]
+//
+// --threads runs the one-walk pipeline (map.carve_tiles 0, one thread) and then, for each
+// listed count, map.threads = count with map.carve_tiles = --tiles (default 4), pass by pass in
+// turn (so load drift hits them alike), always on the wall clock, and prints the medians and
+// their ratios to the first entry.
 //
 // Stage times are the pipeline's own timers. By default they read the thread's CPU clock, so a
 // shared, loaded machine does not inflate them with time spent descheduled; --wall uses the
@@ -70,14 +76,74 @@ std::uint64_t wall_clock() {
   return platform::monotonic_ns();
 }
 
+/// Median wall-clock occupancy and whole-frame times per map thread count, passes in turn.
+int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames, int passes,
+                    int tiles, const std::vector<int>& threads) {
+  struct Run {
+    const char* label;
+    int tiles, threads;
+    std::vector<std::uint64_t> occupancy, total;
+  };
+  std::vector<Run> runs{{"one walk", 0, 1, {}, {}}};
+  for (int n : threads) runs.push_back({"tiled", tiles, n, {}, {}});
+  auto pipeline = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  for (int pass = 0; pass < passes; ++pass) {
+    for (Run& r : runs) {
+      PipelineConfig config = base;
+      config.map.carve_tiles = r.tiles;
+      config.map.threads = r.threads;
+      if (!ok(pipeline->init(config))) return 1;
+      pipeline->set_clock(&wall_clock);
+      for (int i = 0; i < frames; ++i) {
+        Frame f;
+        f.stamp = static_cast<Stamp>(i + 1) * 33'333'333ULL;
+        f.T_map_camera = seq.poses[static_cast<std::size_t>(i)];
+        f.depth = DepthView{seq.images[static_cast<std::size_t>(i)].data(), config.camera.width,
+                            config.camera.height, config.camera.width * 2};
+        if (!ok(pipeline->process(f, *out))) return 1;
+        if (i == 0) continue;
+        r.occupancy.push_back(out->stage_ns[static_cast<std::size_t>(Stage::kOccupancy)]);
+        r.total.push_back(out->total_ns);
+      }
+    }
+  }
+  const auto median = [](std::vector<std::uint64_t> v) {
+    std::sort(v.begin(), v.end());
+    return ms(v[v.size() / 2]);
+  };
+  std::printf("\nmap threads, wall clock, %d frames x %d passes in turn\n", frames - 1, passes);
+  std::printf(
+      "| map | threads | occupancy median (ms) | ratio | frame median (ms) | ratio |\n"
+      "|---|---|---|---|---|---|\n");
+  const double occ0 = median(runs[0].occupancy), tot0 = median(runs[0].total);
+  for (const Run& r : runs) {
+    const double occ = median(r.occupancy), tot = median(r.total);
+    std::printf("| %s (tiles %d) | %d | %.3f | %.2f | %.3f | %.2f |\n", r.label, r.tiles, r.threads,
+                occ, occ / occ0, tot, tot / tot0);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   bool wall = false;
   std::vector<int> numbers;
+  std::vector<int> threads;
+  int tiles = 4;
   for (int i = 1; i < argc; ++i) {
-    if (std::string(argv[i]) == "--wall") {
+    const std::string arg = argv[i];
+    if (arg == "--wall") {
       wall = true;
+    } else if (arg.rfind("--threads=", 0) == 0) {
+      for (std::size_t at = 10; at < arg.size();) {
+        const std::size_t comma = std::min(arg.find(',', at), arg.size());
+        threads.push_back(std::atoi(arg.substr(at, comma - at).c_str()));
+        at = comma + 1;
+      }
+    } else if (arg.rfind("--tiles=", 0) == 0) {
+      tiles = std::atoi(arg.c_str() + 8);
     } else {
       numbers.push_back(std::atoi(argv[i]));
     }
@@ -88,6 +154,7 @@ int main(int argc, char** argv) {
   PipelineConfig config;
   std::printf("rendering %d frames of 640x480 ...\n", frames);
   const Sequence seq = make_sequence(config.camera, frames);
+  if (!threads.empty()) return compare_threads(config, seq, frames, passes, tiles, threads);
 
   auto pipeline = std::make_unique<Pipeline>();
   auto out = std::make_unique<FrameOutput>();

@@ -2,7 +2,9 @@
 // check the frame against its budget, sleep until the next period. This is the shape of the
 // loop a flight stack runs dynamap in (optionally on a SCHED_FIFO thread pinned to a core).
 //
-// Usage: rtos_loop [frames=60] [period_ms=33] [budget_ms=10]
+// Usage: rtos_loop [frames=60] [period_ms=33] [budget_ms=10] [map_threads=1]
+// map_threads > 1 integrates the occupancy map on that many threads (tiled carving, 4 tiles):
+// the map creates its helpers at init, the loop itself is unchanged.
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -23,8 +25,13 @@ int main(int argc, char** argv) {
   auto output = std::make_unique<dynamap::FrameOutput>();
   auto depth =
       std::make_unique<std::uint16_t[]>(dynamap::kMaxImageWidth * dynamap::kMaxImageHeight);
+  const int map_threads = argc > 4 ? std::atoi(argv[4]) : 1;
   dynamap::PipelineConfig config;
   config.budgets.frame_ns = budget_ns;
+  if (map_threads > 1) {
+    config.map.carve_tiles = 4;
+    config.map.threads = map_threads;
+  }
   if (!dynamap::ok(pipeline->init(config))) return 1;
 
   dynamap::Frame frame;

@@ -1,6 +1,7 @@
 #include "dynamap/occupancy_map.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -68,6 +69,14 @@ inline bool finite_positive(float x) noexcept {
 
 OccupancyMap::OccupancyMap() noexcept = default;
 
+namespace {
+std::atomic<OccupancyMap::WorkerHook> g_worker_hook{nullptr};
+}  // namespace
+
+void OccupancyMap::set_worker_hook(WorkerHook hook) noexcept {
+  g_worker_hook.store(hook, std::memory_order_relaxed);
+}
+
 Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   const auto prob_ok = [](float p) { return std::isfinite(p) && p > 0.f && p < 1.f; };
   if (!prob_ok(c.prob_hit) || !prob_ok(c.prob_miss) || !prob_ok(c.prob_min) ||
@@ -105,6 +114,29 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
     return Status::kInvalidArgument;
   }
   if (c.free_ray_early_stop < 0) return Status::kInvalidArgument;
+  if (c.carve_tiles < 0 || c.carve_tiles > kMaxCarveTiles || c.threads < 1 ||
+      c.threads > kMaxMapThreads || (c.threads > 1 && c.carve_tiles == 0)) {
+    return Status::kInvalidArgument;
+  }
+  // Dense per-frame block cache over the local region (+1 block margin each side); disabled
+  // (hash lookups only) when the region is too large for kLocalGridCells.
+  std::array<std::int32_t, 3> grid_dim{};
+  std::size_t cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    const float blocks = c.local_half_extent[a] / (static_cast<float>(kBlockEdge) * c.resolution);
+    grid_dim[static_cast<std::size_t>(a)] = 2 * static_cast<std::int32_t>(std::ceil(blocks)) + 3;
+    cells *= static_cast<std::size_t>(grid_dim[static_cast<std::size_t>(a)]);
+  }
+  if (c.carve_tiles > 0 && cells > kMaxTileCells) return Status::kInvalidArgument;
+  if (team_.size() != static_cast<unsigned>(c.threads)) {
+    team_.stop();
+    platform::ThreadOptions options{};
+    options.name = "dynamap-map";
+    if (const Status s = team_.start(static_cast<unsigned>(c.threads), options); !ok(s)) {
+      initialized_ = false;
+      return s;
+    }
+  }
 
   config_ = c;
   resolution_ = c.resolution;
@@ -115,14 +147,7 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   q_max_ = quantize(logit(c.prob_max));
   q_occupied_ = quantize(logit(c.prob_occupied));
 
-  // Dense per-frame block cache over the local region (+1 block margin each side); disabled
-  // (hash lookups only) when the region is too large for kLocalGridCells.
-  std::size_t cells = 1;
-  for (int a = 0; a < 3; ++a) {
-    const float blocks = c.local_half_extent[a] / (static_cast<float>(kBlockEdge) * c.resolution);
-    grid_dim_[static_cast<std::size_t>(a)] = 2 * static_cast<std::int32_t>(std::ceil(blocks)) + 3;
-    cells *= static_cast<std::size_t>(grid_dim_[static_cast<std::size_t>(a)]);
-  }
+  grid_dim_ = grid_dim;
   grid_enabled_ = cells <= kLocalGridCells;
   grid_cells_ = grid_enabled_ ? cells : 0;
 
@@ -235,11 +260,6 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
   IndexVec idx{}, end{};
   if (!initialized_ || !index_of(a, idx) || !index_of(b, end)) return false;
   detail::SegmentWalk w = detail::start_segment_walk(a, b, idx, end, resolution_);
-  std::int32_t* const step = w.step;
-  std::int32_t* const remaining = w.remaining;
-  float* const t_max = w.t_max;
-  float* const t_delta = w.t_delta;
-  constexpr float kInf = std::numeric_limits<float>::infinity();
   constexpr std::int32_t kMask = kBlockEdge - 1;
   std::size_t n = 0;  // voxels visited so far (cap kMaxSegmentVisits, as for the voxel walk)
   while (n < kMaxSegmentVisits) {
@@ -249,47 +269,10 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
     std::int32_t inside[3];
     for (std::size_t ax = 0; ax < 3; ++ax) {
       const std::int32_t local = idx[ax] & kMask;
-      inside[ax] = step[ax] > 0 ? kMask - local : local;
+      inside[ax] = w.step[ax] > 0 ? kMask - local : local;
     }
     if (block == nullptr || block->occupied == 0) {
-      // t of each axis's boundary-crossing step (inf when its steps run out first).
-      float cross[3];
-      for (std::size_t ax = 0; ax < 3; ++ax) {
-        cross[ax] = kInf;
-        if (inside[ax] + 1 > remaining[ax]) continue;
-        float t = t_max[ax];
-        for (std::int32_t s = 0; s < inside[ax]; ++s) t += t_delta[ax];
-        cross[ax] = t;
-      }
-      std::size_t exit_ax = 0;
-      if (cross[1] < cross[exit_ax]) exit_ax = 1;
-      if (cross[2] < cross[exit_ax]) exit_ax = 2;
-      if (cross[exit_ax] == kInf) return false;  // the segment ends inside this block
-      const float t_exit = cross[exit_ax];
-      std::size_t steps = 0;
-      for (std::size_t ax = 0; ax < 3; ++ax) {
-        if (ax == exit_ax) continue;
-        // Steps of this axis that come before the exit step in (t, axis) order.
-        const std::int32_t limit = std::min(inside[ax], remaining[ax]);
-        std::int32_t k = 0;
-        float t = t_max[ax];
-        while (k < limit && (t < t_exit || (t == t_exit && ax < exit_ax))) {
-          ++k;
-          t = k == remaining[ax] ? kInf : t + t_delta[ax];
-        }
-        idx[ax] += k * step[ax];
-        remaining[ax] -= k;
-        t_max[ax] = t;
-        steps += static_cast<std::size_t>(k);
-      }
-      steps += static_cast<std::size_t>(inside[exit_ax]);
-      // Visits in this block: the current voxel and one per step inside it.
-      if (n + steps + 1 >= kMaxSegmentVisits) return false;
-      n += steps + 1;
-      const std::int32_t k = inside[exit_ax] + 1;
-      idx[exit_ax] += k * step[exit_ax];
-      remaining[exit_ax] -= k;
-      t_max[exit_ax] = remaining[exit_ax] == 0 ? kInf : t_exit + t_delta[exit_ax];
+      if (!w.cross_block(idx, inside, n, kMaxSegmentVisits)) return false;
       continue;
     }
     // Voxel walk inside a block with occupied voxels, until the walk leaves it.
@@ -299,7 +282,7 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
         if (hit != nullptr) *hit = center_of(idx);
         return true;
       }
-      if (remaining[0] + remaining[1] + remaining[2] == 0) return false;
+      if (w.remaining[0] + w.remaining[1] + w.remaining[2] == 0) return false;
       const std::size_t ax = w.advance(idx);
       if (++n >= kMaxSegmentVisits) return false;
       if (inside[ax]-- == 0) break;  // crossed into the next block
@@ -485,456 +468,765 @@ inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir
   return true;
 }
 
-void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
-  std::size_t pixels = 0, merged = 0, dropped = 0, dropped_updates = 0, updates = 0, hits = 0;
-  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
-  const std::uint16_t queued_stamp = static_cast<std::uint16_t>(base + kQueued);
-  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
-  const bool merge = config_.merge_rays_per_voxel;
-  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
-  const int width = cam_->width, height = cam_->height;
-  const int columns = sampled_columns_;
-  const std::size_t max_rays = config_.max_rays_per_frame;
-  const std::int32_t q_hit = q_hit_, q_max = q_max_, q_occupied = q_occupied_;
-  const float max_depth = config_.max_depth;
-  Block* block = nullptr;
-  // Loop constants in locals: the map writes below could otherwise alias the members, and the
-  // compiler would reload and re-broadcast them for every packet.
-  const Eigen::Array4i hit_raw_end_i =
-      Eigen::Array4i::Constant(static_cast<std::int32_t>(hit_raw_end_));
-  const Eigen::Array4i near_raw_end_i =
-      Eigen::Array4i::Constant(static_cast<std::int32_t>(near_raw_end_));
-  const float scale = depth_scale_, inv_res = inv_resolution_;
-  const Eigen::Array4f half_x = Eigen::Array4f::Constant(half_extent4_[0]);
-  const Eigen::Array4f half_y = Eigen::Array4f::Constant(half_extent4_[1]);
-  const Eigen::Array4f half_z = Eigen::Array4f::Constant(half_extent4_[2]);
-  const Eigen::Array4f origin_x = Eigen::Array4f::Constant(origin4_[0]);
-  const Eigen::Array4f origin_y = Eigen::Array4f::Constant(origin4_[1]);
-  const Eigen::Array4f origin_z = Eigen::Array4f::Constant(origin4_[2]);
+/// Pass 1's loop constants, in locals of the loops that use them: the map writes there could
+/// otherwise alias the members, and the compiler would reload and re-broadcast them for every
+/// packet.
+struct OccupancyMap::EndPointConstants {
+  Eigen::Array4i hit_raw_end, near_raw_end;
+  float scale, inv_res, max_depth;
+  Eigen::Array4f half_x, half_y, half_z, origin_x, origin_y, origin_z;
+  Eigen::Array4i base_x, base_y, base_z;
+  int margin, stride;
+};
+
+OccupancyMap::EndPointConstants OccupancyMap::end_point_constants() const noexcept {
   // End points lie in the local region, fewer than 2^(kKeyBlockBits - 1) blocks from the
   // camera's block per axis (init() bounds the region), so voxel indices taken relative to
   // key_base_ are non-negative (shifts are well defined) and a block is named by one int key.
-  const Eigen::Array4i base_x = Eigen::Array4i::Constant(key_base_[0]);
-  const Eigen::Array4i base_y = Eigen::Array4i::Constant(key_base_[1]);
-  const Eigen::Array4i base_z = Eigen::Array4i::Constant(key_base_[2]);
+  return {Eigen::Array4i::Constant(static_cast<std::int32_t>(hit_raw_end_)),
+          Eigen::Array4i::Constant(static_cast<std::int32_t>(near_raw_end_)),
+          depth_scale_,
+          inv_resolution_,
+          config_.max_depth,
+          Eigen::Array4f::Constant(half_extent4_[0]),
+          Eigen::Array4f::Constant(half_extent4_[1]),
+          Eigen::Array4f::Constant(half_extent4_[2]),
+          Eigen::Array4f::Constant(origin4_[0]),
+          Eigen::Array4f::Constant(origin4_[1]),
+          Eigen::Array4f::Constant(origin4_[2]),
+          Eigen::Array4i::Constant(key_base_[0]),
+          Eigen::Array4i::Constant(key_base_[1]),
+          Eigen::Array4i::Constant(key_base_[2]),
+          config_.pixel_margin,
+          config_.pixel_stride};
+}
+
+/// End voxels of four sampled pixels of row v, columns k0 .. k0 + 3 (lanes past the row's end
+/// repeat its last pixel and are never used).
+///
+/// One pixel per lane, structure of arrays. Every lane gets the scalar end_point()'s float
+/// operations in the same order, branch-free (Eigen maps them to SSE/NEON element-wise
+/// operations; the selects are exact arithmetic and floor_lanes is exact), so the end voxels
+/// are bit-identical to end_point()'s, which pass 2 uses.
+// Always inlined: called once per packet, and its lanes feed the caller's loop in registers.
+EIGEN_ALWAYS_INLINE OccupancyMap::EndLanes OccupancyMap::end_lanes(const EndPointConstants& c,
+                                                                   const std::uint16_t* row,
+                                                                   const RowDirection& row_dir,
+                                                                   int k0,
+                                                                   int lanes) const noexcept {
+  std::array<std::uint16_t, 4> raw{};
+  const std::uint16_t* px = row + c.margin + k0 * c.stride;
+  if (lanes == 4) {
+    for (int l = 0; l < 4; ++l) raw[static_cast<std::size_t>(l)] = px[l * c.stride];
+  } else {
+    for (int l = 0; l < 4; ++l) {
+      raw[static_cast<std::size_t>(l)] = px[std::min(l, lanes - 1) * c.stride];
+    }
+  }
+  const Eigen::Array4i raw_i{raw[0], raw[1], raw[2], raw[3]};
+  const Eigen::Array4f raw_f = raw_i.cast<float>();  // exact: raw < 2^16
+  // Free rays (no return, or beyond max_depth) are cast to max_depth. Select-free form:
+  // (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
+  const Eigen::Array4f z_ray =
+      (raw_f * c.scale + (1.f - raw_f).max(0.f) * c.max_depth).min(c.max_depth);
+  const auto k = static_cast<std::size_t>(k0);
+  Eigen::Array4f off_x = (Eigen::Array4f::Map(&sampled_dir_x_[k]) + row_dir.x) * z_ray;
+  Eigen::Array4f off_y = (Eigen::Array4f::Map(&sampled_dir_y_[k]) + row_dir.y) * z_ray;
+  Eigen::Array4f off_z = (Eigen::Array4f::Map(&sampled_dir_z_[k]) + row_dir.z) * z_ray;
+  // For floats o - h > 0 exactly when o > h, as in end_point().
+  const Eigen::Array4f outside =
+      (off_x.abs() - c.half_x).max(off_y.abs() - c.half_y).max(off_z.abs() - c.half_z);
+  // Lane classes as 0/1 integers, computed in the lanes (arithmetic shifts give -1 where the
+  // difference is negative): raw in [1, near_raw_end) is closer than min_depth and skipped;
+  // raw in [near_raw_end, hit_raw_end) is a hit unless clipped; the rest (0, or beyond
+  // max_depth) are free rays. near_raw_end >= 1 and near_raw_end <= hit_raw_end, so each
+  // difference below is 0 or 1.
+  const Eigen::Array4i below_zero = (raw_i - 1).shiftRight<31>();
+  const Eigen::Array4i below_near = (raw_i - c.near_raw_end).shiftRight<31>();
+  const Eigen::Array4i below_hit = (raw_i - c.hit_raw_end).shiftRight<31>();
+  EndLanes e;
+  e.too_near = below_zero - below_near;  // 1: skip the pixel
+  e.hit = below_near - below_hit;        // 1: measured and not near
+  if (outside.maxCoeff() > 0.f) {
+    // end_point()'s clip: min(1, h/|o|) is 1 where |o| <= h (h/|o| >= 1, or inf), so the
+    // minimum over axes is its scale; lanes inside keep the factor 1 exactly. The factor is
+    // shrink where scale < 1 and shrink + (1 - c) = c + (1 - c) = 1 (exact) where not.
+    const Eigen::Array4f clip_scale =
+        (c.half_x / off_x.abs()).min(c.half_y / off_y.abs()).min(c.half_z / off_z.abs()).min(1.f);
+    constexpr float kInside = 1.f - 1e-4f;
+    const Eigen::Array4f shrink = clip_scale * kInside;
+    // 1 where scale == 1, 0 where scale < 1 (then scale - 1 <= -2^-24).
+    const Eigen::Array4f unclipped = 1.f + ((clip_scale - 1.f) * 1073741824.f).max(-1.f);
+    const Eigen::Array4f factor = shrink + unclipped * (1.f - kInside);
+    off_x *= factor;
+    off_y *= factor;
+    off_z *= factor;
+    // A clipped ray loses its hit: hit and unclipped are both 0/1, so (hit + unclipped) >> 1
+    // is their conjunction.
+    e.hit = (e.hit + unclipped.cast<std::int32_t>()).shiftRight<1>();
+  }
+  const Eigen::Array4i ix = floor_lanes((c.origin_x + off_x) * c.inv_res) - c.base_x;
+  const Eigen::Array4i iy = floor_lanes((c.origin_y + off_y) * c.inv_res) - c.base_y;
+  const Eigen::Array4i iz = floor_lanes((c.origin_z + off_z) * c.inv_res) - c.base_z;
+  e.blk_x = ix.shiftRight<kBlockBits>();
+  e.blk_y = iy.shiftRight<kBlockBits>();
+  e.blk_z = iz.shiftRight<kBlockBits>();
+  e.in_block = (ix - e.blk_x.shiftLeft<kBlockBits>()) +
+               (iy - e.blk_y.shiftLeft<kBlockBits>()).shiftLeft<kBlockBits>() +
+               (iz - e.blk_z.shiftLeft<kBlockBits>()).shiftLeft<2 * kBlockBits>();
+  return e;
+}
+
+/// The map update of one end voxel in pixel order: a hit is applied once per voxel; the ray is
+/// listed unless merged into an earlier one ending in the same voxel. Returns whether listed.
+inline bool OccupancyMap::mark_end_voxel(Block& block, std::size_t li, bool hit,
+                                         const EndMarkStamps& s, EndMarkCounters& k) noexcept {
+  Voxel& vx = block.voxels[li];
+  const std::uint16_t stamp = vx.stamp;
+  if (s.merge && (stamp == s.hit || (!hit && stamp == s.queued))) {
+    ++k.merged;
+    return false;
+  }
+  if (k.rays >= s.max_rays) {
+    ++k.dropped;
+    return false;
+  }
+  if (hit) {
+    if (stamp != s.hit) {
+      const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
+      const std::int32_t updated = std::min(current + s.q_hit, s.q_max);
+      block.occupied = static_cast<std::uint16_t>(block.occupied + (updated > s.q_occupied) -
+                                                  (vx.log_odds > s.q_occupied));
+      vx.log_odds = static_cast<std::int16_t>(updated);
+      vx.stamp = s.hit;
+      ++k.updates;
+      ++k.hits;
+    }
+  } else if (stamp != s.hit) {
+    vx.stamp = s.queued;
+  }
+  ++k.rays;
+  return true;
+}
+
+OccupancyMap::EndMarkStamps OccupancyMap::end_mark_stamps(std::size_t max_rays) const noexcept {
+  const auto base = static_cast<std::uint16_t>(frame_tag_ * 4u);
+  return {static_cast<std::uint16_t>(base + kQueued),
+          static_cast<std::uint16_t>(base + kHit),
+          config_.merge_rays_per_voxel,
+          max_rays,
+          q_hit_,
+          q_max_,
+          q_occupied_};
+}
+
+void OccupancyMap::add_end_mark_counters(const EndMarkCounters& k) noexcept {
+  stats_.pixels_sampled += k.pixels;
+  stats_.rays_merged += k.merged;
+  stats_.rays_dropped += k.dropped;
+  stats_.updates_dropped += k.dropped_updates;
+  stats_.voxel_updates += k.updates;
+  stats_.hits += k.hits;
+}
+
+/// Pass 1 on this thread: end voxels four pixels at a time, map updates one pixel at a time in
+/// pixel order; blocks are looked up once per run of pixels in the same block.
+void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
+  const EndPointConstants c = end_point_constants();
+  const EndMarkStamps stamps = end_mark_stamps(config_.max_rays_per_frame);
+  EndMarkCounters k{};
+  k.rays = ray_count_;
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  const int width = cam_->width, columns = sampled_columns_;
   const std::int32_t key_block_x = key_base_[0] >> kBlockBits;
   const std::int32_t key_block_y = key_base_[1] >> kBlockBits;
   const std::int32_t key_block_z = key_base_[2] >> kBlockBits;
   const LocalGrid grid = local_grid();
+  Block* block = nullptr;
   // Keys are >= 0, so the first pixel (and the one after a failed lookup) looks its block up.
   std::int32_t current_key = -1;
-  std::size_t ray_count = ray_count_;
-  for (int v = margin; v < height - margin; v += stride) {
+  for (int v = margin; v < cam_->height - margin; v += stride) {
     const std::uint16_t* row = depth.row(v);
-    const Eigen::Array4f row_dir = row_direction(v);
-    const Eigen::Array4f row_x = Eigen::Array4f::Constant(row_dir[0]);
-    const Eigen::Array4f row_y = Eigen::Array4f::Constant(row_dir[1]);
-    const Eigen::Array4f row_z = Eigen::Array4f::Constant(row_dir[2]);
-    // Four sampled pixels per step, one per lane, structure of arrays. Every lane gets the
-    // scalar end_point()'s float operations in the same order, branch-free (Eigen maps them to
-    // SSE/NEON element-wise operations; the selects are exact arithmetic and floor_lanes is
-    // exact), so the end voxels are bit-identical to end_point()'s, which pass 2 uses. The map
-    // update stays scalar, in pixel order.
+    const RowDirection row_dir = row_direction_lanes(v);
     for (int k0 = 0; k0 < columns; k0 += 4) {
       const int lanes = std::min(4, columns - k0);
-      std::array<std::uint16_t, 4> raw{};
-      const std::uint16_t* px = row + margin + k0 * stride;
-      if (lanes == 4) {
-        for (int l = 0; l < 4; ++l) raw[static_cast<std::size_t>(l)] = px[l * stride];
-      } else {
-        // Lanes past the row end repeat its last pixel; they are never used.
-        for (int l = 0; l < 4; ++l) {
-          raw[static_cast<std::size_t>(l)] = px[std::min(l, lanes - 1) * stride];
-        }
-      }
-      const Eigen::Array4i raw_i{raw[0], raw[1], raw[2], raw[3]};
-      const Eigen::Array4f raw_f = raw_i.cast<float>();  // exact: raw < 2^16
-      // Free rays (no return, or beyond max_depth) are cast to max_depth. Select-free form:
-      // (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
-      const Eigen::Array4f z_ray =
-          (raw_f * scale + (1.f - raw_f).max(0.f) * max_depth).min(max_depth);
-      const auto k = static_cast<std::size_t>(k0);
-      Eigen::Array4f off_x = (Eigen::Array4f::Map(&sampled_dir_x_[k]) + row_x) * z_ray;
-      Eigen::Array4f off_y = (Eigen::Array4f::Map(&sampled_dir_y_[k]) + row_y) * z_ray;
-      Eigen::Array4f off_z = (Eigen::Array4f::Map(&sampled_dir_z_[k]) + row_z) * z_ray;
-      // For floats o - h > 0 exactly when o > h, as in end_point().
-      const Eigen::Array4f outside =
-          (off_x.abs() - half_x).max(off_y.abs() - half_y).max(off_z.abs() - half_z);
-      const bool any_outside = outside.maxCoeff() > 0.f;
-      // Lane classes as 0/1 integers, computed in the lanes (arithmetic shifts give -1 where
-      // the difference is negative): raw in [1, near_raw_end) is closer than min_depth and
-      // skipped; raw in [near_raw_end, hit_raw_end) is a hit unless clipped; the rest (0, or
-      // beyond max_depth) are free rays. near_raw_end >= 1 and near_raw_end <= hit_raw_end, so
-      // each difference below is 0 or 1.
-      const Eigen::Array4i below_zero = (raw_i - 1).shiftRight<31>();
-      const Eigen::Array4i below_near = (raw_i - near_raw_end_i).shiftRight<31>();
-      const Eigen::Array4i below_hit = (raw_i - hit_raw_end_i).shiftRight<31>();
-      const Eigen::Array4i too_near = below_zero - below_near;  // 1: skip the pixel
-      Eigen::Array4i hit_lane = below_near - below_hit;         // 1: measured and not near
-      if (any_outside) {
-        // end_point()'s clip: min(1, h/|o|) is 1 where |o| <= h (h/|o| >= 1, or inf), so the
-        // minimum over axes is its scale; lanes inside keep the factor 1 exactly. The factor
-        // is shrink where scale < 1 and shrink + (1 - c) = c + (1 - c) = 1 (exact) where not.
-        const Eigen::Array4f clip_scale =
-            (half_x / off_x.abs()).min(half_y / off_y.abs()).min(half_z / off_z.abs()).min(1.f);
-        constexpr float kInside = 1.f - 1e-4f;
-        const Eigen::Array4f shrink = clip_scale * kInside;
-        // 1 where scale == 1, 0 where scale < 1 (then scale - 1 <= -2^-24).
-        const Eigen::Array4f unclipped = 1.f + ((clip_scale - 1.f) * 1073741824.f).max(-1.f);
-        const Eigen::Array4f factor = shrink + unclipped * (1.f - kInside);
-        off_x *= factor;
-        off_y *= factor;
-        off_z *= factor;
-        // A clipped ray loses its hit: hit and unclipped are both 0/1, so (hit + unclipped) >> 1
-        // is their conjunction.
-        hit_lane = (hit_lane + unclipped.cast<std::int32_t>()).shiftRight<1>();
-      }
-      const Eigen::Array4i ix = floor_lanes((origin_x + off_x) * inv_res) - base_x;
-      const Eigen::Array4i iy = floor_lanes((origin_y + off_y) * inv_res) - base_y;
-      const Eigen::Array4i iz = floor_lanes((origin_z + off_z) * inv_res) - base_z;
-      const Eigen::Array4i blk_x = ix.shiftRight<kBlockBits>();
-      const Eigen::Array4i blk_y = iy.shiftRight<kBlockBits>();
-      const Eigen::Array4i blk_z = iz.shiftRight<kBlockBits>();
-      const Eigen::Array4i in_block =
-          (ix - blk_x.shiftLeft<kBlockBits>()) +
-          (iy - blk_y.shiftLeft<kBlockBits>()).shiftLeft<kBlockBits>() +
-          (iz - blk_z.shiftLeft<kBlockBits>()).shiftLeft<2 * kBlockBits>();
+      const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
       const Eigen::Array4i key =
-          blk_x + (blk_y + blk_z.shiftLeft<kKeyBlockBits>()).shiftLeft<kKeyBlockBits>();
+          e.blk_x + (e.blk_y + e.blk_z.shiftLeft<kKeyBlockBits>()).shiftLeft<kKeyBlockBits>();
       for (int l = 0; l < lanes; ++l) {
-        if (too_near[l] != 0) continue;  // closer than min_depth
-        const bool hit = hit_lane[l] != 0;
-        const std::int32_t lane_key = key[l];
-        ++pixels;
-        if (lane_key != current_key) {
-          block = local_block(grid, blk_x[l] + key_block_x, blk_y[l] + key_block_y,
-                              blk_z[l] + key_block_z);
+        if (e.too_near[l] != 0) continue;  // closer than min_depth
+        ++k.pixels;
+        if (key[l] != current_key) {
+          block = local_block(grid, e.blk_x[l] + key_block_x, e.blk_y[l] + key_block_y,
+                              e.blk_z[l] + key_block_z);
           if (block == nullptr) {
             current_key = -1;
-            ++dropped;
-            ++dropped_updates;
+            ++k.dropped;
+            ++k.dropped_updates;
             continue;
           }
-          current_key = lane_key;
+          current_key = key[l];
         }
-        Voxel& vx = block->voxels[static_cast<std::size_t>(in_block[l])];
-        const std::uint16_t stamp = vx.stamp;
-        if (merge && (stamp == hit_stamp || (!hit && stamp == queued_stamp))) {
-          ++merged;
-          continue;
+        const std::size_t before = k.rays;
+        if (mark_end_voxel(*block, static_cast<std::size_t>(e.in_block[l]), e.hit[l] != 0, stamps,
+                           k)) {
+          rays_[before] = static_cast<std::uint32_t>(v * width + margin + (k0 + l) * stride);
         }
-        if (ray_count >= max_rays) {
-          ++dropped;
-          continue;
-        }
-        if (hit) {
-          if (stamp != hit_stamp) {
-            const std::int32_t current = vx.log_odds == kUnknown ? 0 : vx.log_odds;
-            const std::int32_t updated = std::min(current + q_hit, q_max);
-            block->occupied = static_cast<std::uint16_t>(block->occupied + (updated > q_occupied) -
-                                                         (vx.log_odds > q_occupied));
-            vx.log_odds = static_cast<std::int16_t>(updated);
-            vx.stamp = hit_stamp;
-            ++updates;
-            ++hits;
-          }
-        } else if (stamp != hit_stamp) {
-          vx.stamp = queued_stamp;
-        }
-        rays_[ray_count++] = static_cast<std::uint32_t>(v * width + margin + (k0 + l) * stride);
       }
     }
   }
-  ray_count_ = ray_count;
-  stats_.pixels_sampled += pixels;
-  stats_.rays_merged += merged;
-  stats_.rays_dropped += dropped;
-  stats_.updates_dropped += dropped_updates;
-  stats_.voxel_updates += updates;
-  stats_.hits += hits;
+  ray_count_ = k.rays;
+  add_end_mark_counters(k);
 }
+
+// --- Pass 1 on the team (carve_tiles > 0) ----------------------------------------------------
+// The same end voxels and map updates as mark_end_points(), in four steps: the members compute
+// the end voxels of their rows into end_codes_; this thread acquires their blocks; each member
+// then runs the pixel-order updates of the cells it owns (cell % members), which decide merges
+// and hits per voxel exactly as the one-thread loop does, since they depend only on the pixels
+// ending in that voxel; this thread lists the kept rays in pixel order. Used when the visit
+// of every sampled pixel fits max_rays_per_frame (the cap is a pixel-order rule).
+
+namespace {
+constexpr std::uint32_t kSkipCode = 0xFFFFFFFFu;     ///< closer than min_depth
+constexpr std::uint32_t kOutsideCode = 0xFFFFFFFEu;  ///< outside the local grid (never)
+}  // namespace
+
+void OccupancyMap::compute_end_codes(unsigned member) noexcept {
+  const EndPointConstants c = end_point_constants();
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  const int columns = sampled_columns_;
+  const int rows = std::max(0, (cam_->height - 2 * margin + stride - 1) / stride);
+  const unsigned members = team_.size();
+  const int j0 = static_cast<int>(static_cast<unsigned>(rows) * member / members);
+  const int j1 = static_cast<int>(static_cast<unsigned>(rows) * (member + 1) / members);
+  const LocalGrid grid = local_grid();
+  const Eigen::Array4i off_x =
+      Eigen::Array4i::Constant((key_base_[0] >> kBlockBits) - grid.origin[0]);
+  const Eigen::Array4i off_y =
+      Eigen::Array4i::Constant((key_base_[1] >> kBlockBits) - grid.origin[1]);
+  const Eigen::Array4i off_z =
+      Eigen::Array4i::Constant((key_base_[2] >> kBlockBits) - grid.origin[2]);
+  const Eigen::Array4i dim_x = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[0]));
+  const Eigen::Array4i dim_y = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[1]));
+  const Eigen::Array4i dim_z = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[2]));
+  for (int j = j0; j < j1; ++j) {
+    const int v = margin + j * stride;
+    const std::uint16_t* row = team_depth_->row(v);
+    const RowDirection row_dir = row_direction_lanes(v);
+    const std::size_t first = static_cast<std::size_t>(j) * static_cast<std::size_t>(columns);
+    std::uint32_t* codes = &end_codes_[first];
+    std::uint8_t* kept = &end_kept_[first];
+    for (int k0 = 0; k0 < columns; k0 += 4) {
+      const int lanes = std::min(4, columns - k0);
+      const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
+      const Eigen::Array4i gi = e.blk_x + off_x, gj = e.blk_y + off_y, gk = e.blk_z + off_z;
+      const Eigen::Array4i cell = gi + dim_x * (gj + dim_y * gk);
+      const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;
+      const Eigen::Array<bool, 4, 1> inside =
+          (gi.min(gj).min(gk) >= 0) && (gi < dim_x) && (gj < dim_y) && (gk < dim_z);
+      for (int l = 0; l < lanes; ++l) {
+        codes[k0 + l] = e.too_near[l] != 0 ? kSkipCode
+                        : inside[l]        ? static_cast<std::uint32_t>(code[l])
+                                           : kOutsideCode;
+        kept[k0 + l] = 0;
+      }
+    }
+  }
+}
+
+void OccupancyMap::acquire_end_blocks(std::size_t samples) noexcept {
+  const LocalGrid grid = local_grid();
+  std::uint32_t last_cell = 0xFFFFFFFFu;
+  for (std::size_t s = 0; s < samples; ++s) {
+    const std::uint32_t code = end_codes_[s];
+    if (code >= kOutsideCode) continue;
+    const std::uint32_t cell = code >> 10;
+    if (cell == last_cell || grid.cells[cell] != 0) {
+      last_cell = cell;
+      continue;
+    }
+    last_cell = cell;
+    const std::uint32_t gi = cell % grid.dim[0];
+    const std::uint32_t gj = (cell / grid.dim[0]) % grid.dim[1];
+    const std::uint32_t gk = cell / (grid.dim[0] * grid.dim[1]);
+    (void)local_block(grid, grid.origin[0] + static_cast<std::int32_t>(gi),
+                      grid.origin[1] + static_cast<std::int32_t>(gj),
+                      grid.origin[2] + static_cast<std::int32_t>(gk));
+  }
+}
+
+void OccupancyMap::mark_end_codes(unsigned member, std::size_t samples) noexcept {
+  const unsigned members = team_.size();
+  const EndMarkStamps stamps = end_mark_stamps(samples);
+  EndMarkCounters k{};
+  const std::uint16_t* cells = local_grid_.data();
+  for (std::size_t s = 0; s < samples; ++s) {
+    const std::uint32_t code = end_codes_[s];
+    if (code == kSkipCode) continue;
+    const std::uint32_t cell = code >> 10;
+    if (code == kOutsideCode ? member != 0 : cell % members != member) continue;
+    ++k.pixels;
+    if (code == kOutsideCode || cells[cell] == 0) {
+      ++k.dropped;  // no block: the pool is full
+      ++k.dropped_updates;
+      continue;
+    }
+    Block& block = pool_[cells[cell] - 1u];
+    end_kept_[s] = mark_end_voxel(block, code & 511u, ((code >> 9) & 1u) != 0, stamps, k) ? 1 : 0;
+  }
+  member_marks_[member] = k;
+}
+
+void OccupancyMap::mark_end_points_in_team(const DepthView& depth) noexcept {
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  const int columns = sampled_columns_;
+  const int rows = std::max(0, (cam_->height - 2 * margin + stride - 1) / stride);
+  const std::size_t samples = static_cast<std::size_t>(rows) * static_cast<std::size_t>(columns);
+  team_depth_ = &depth;
+  team_.run([](void* self,
+               unsigned member) { static_cast<OccupancyMap*>(self)->compute_end_codes(member); },
+            this);
+  acquire_end_blocks(samples);
+  team_samples_ = samples;
+  team_.run(
+      [](void* self, unsigned member) {
+        auto& map = *static_cast<OccupancyMap*>(self);
+        map.mark_end_codes(member, map.team_samples_);
+      },
+      this);
+  EndMarkCounters total{};
+  for (unsigned m = 0; m < team_.size(); ++m) {
+    const EndMarkCounters& k = member_marks_[m];
+    total.pixels += k.pixels;
+    total.merged += k.merged;
+    total.dropped += k.dropped;
+    total.dropped_updates += k.dropped_updates;
+    total.updates += k.updates;
+    total.hits += k.hits;
+  }
+  add_end_mark_counters(total);
+  std::size_t ray_count = 0;
+  const int width = cam_->width;
+  for (std::size_t s = 0; s < samples; ++s) {
+    if (end_kept_[s] == 0) continue;
+    const int j = static_cast<int>(s / static_cast<std::size_t>(columns));
+    const int k = static_cast<int>(s % static_cast<std::size_t>(columns));
+    rays_[ray_count++] =
+        static_cast<std::uint32_t>((margin + j * stride) * width + margin + k * stride);
+  }
+  ray_count_ = ray_count;
+  team_depth_ = nullptr;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Carving (pass 2): free space along each listed ray, walked from its end back to the camera
+// with early stop, or from the camera to its end (exact walk).
+
+namespace {
+/// Coarse-to-fine ray order of the early-stop walk (carve_free_space()).
+constexpr std::uint32_t kOrderLevels = 4;
+/// Keys of order_rays()'s counting sort: tile * kLevelKeys + level.
+constexpr std::size_t kLevelKeys = kOrderLevels + 1;
+}  // namespace
+
+/// Level of each listed ray in the early-stop order and its tile, then a stable counting sort
+/// of rays_ into ordered_rays_ by (tile, level): pixel order within each. Returns the rays.
+///
+/// Early stop walks the rays coarse to fine over the sampled pixel grid: first the pixels on
+/// the lattice 2^kOrderLevels samples apart, then each finer lattice's new pixels (image order
+/// within a level). In plain image order a ray stops as soon as it has run N voxels inside its
+/// neighbour's tube, although the two lines still part at voxel corners nearer the camera;
+/// here the rays that walk first are far apart, so they walk almost to the camera and carve
+/// the near part densely before the finer rays stop against them. For the same number of
+/// visits it skips a third to half fewer misses (docs/occupancy_map.md).
+std::size_t OccupancyMap::order_rays(int tiles, bool by_level) noexcept {
+  const auto width = static_cast<std::uint32_t>(cam_->width);
+  const auto margin = static_cast<std::uint32_t>(config_.pixel_margin);
+  const auto stride = static_cast<std::uint32_t>(config_.pixel_stride);
+  const auto columns = static_cast<std::uint32_t>(std::max(sampled_columns_, 1));
+  const auto tile_count = static_cast<std::uint32_t>(tiles);
+  std::array<std::size_t, kMaxCarveTiles * kLevelKeys + 1> start{};
+  // Sort keys are kept in rays_'s top bits (pixel indices need 19) until the sort is done.
+  constexpr int kKeyShift = 24;
+  static_assert(kMaxImageWidth * kMaxImageHeight < (1 << kKeyShift), "pixel index bits");
+  for (std::size_t r = 0; r < ray_count_; ++r) {
+    const std::uint32_t u = rays_[r] % width, v = rays_[r] / width;
+    const std::uint32_t k = (u - margin) / stride;
+    std::uint32_t level = 0;
+    if (by_level) {
+      // Level of sampled pixel (k, j): the trailing zero bits k and j share, at most
+      // kOrderLevels; the coarsest lattice is walked first.
+      const std::uint32_t kj = k | ((v - margin) / stride);
+      while (level < kOrderLevels && ((kj >> level) & 1u) == 0) ++level;
+      level = kOrderLevels - level;
+    }
+    const std::uint32_t tile = tiles > 1 ? k * tile_count / columns : 0;
+    const std::uint32_t key = tile * static_cast<std::uint32_t>(kLevelKeys) + level;
+    rays_[r] |= key << kKeyShift;
+    ++start[key + 1];
+  }
+  for (std::size_t key = 1; key < start.size(); ++key) start[key] += start[key - 1];
+  for (int t = 0; t < tiles; ++t) {
+    TileScratch& tile = tiles_[static_cast<std::size_t>(t)];
+    tile.ray_begin = start[static_cast<std::size_t>(t) * kLevelKeys];
+    tile.ray_end = start[static_cast<std::size_t>(t + 1) * kLevelKeys];
+  }
+  constexpr std::uint32_t kPixelMask = (1u << kKeyShift) - 1;
+  for (std::size_t r = 0; r < ray_count_; ++r) {
+    const std::uint32_t key = rays_[r] >> kKeyShift;
+    rays_[r] &= kPixelMask;
+    ordered_rays_[start[key]++] = rays_[r];
+  }
+  return ray_count_;
+}
+
+/// The walk of the ray of `pixel` (false when its depth is too near): from its end voxel to
+/// the camera's when from_end (early stop), else from the camera's to its end voxel.
+bool OccupancyMap::start_ray(std::uint32_t pixel, const DepthView& depth, const IndexVec& camera,
+                             bool from_end, detail::RayWalk& w) const noexcept {
+  const auto width = static_cast<std::uint32_t>(cam_->width);
+  const int u = static_cast<int>(pixel % width);
+  const int v = static_cast<int>(pixel / width);
+  Eigen::Array4f end;
+  bool end_is_hit = false;
+  IndexVec last{};
+  if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v), end,
+                 last, end_is_hit)) {
+    return false;
+  }
+  // Parameter t in [0, 1] along from_point -> from_point + d. The far part of a ray is its own,
+  // the near part mostly what earlier rays (its neighbours in pixel order) already carved, so
+  // that is where the early-stop walk, which goes backwards, can stop.
+  const Eigen::Array4f from_point = from_end ? end : origin4_;
+  const Eigen::Array4f d = from_end ? Eigen::Array4f(origin4_ - end) : end - origin4_;
+  const IndexVec& from = from_end ? last : camera;
+  const IndexVec& to = from_end ? camera : last;
+  const float res = resolution_;
+  const auto axis = [&](std::size_t a, std::int32_t& i, std::int32_t& s, std::int32_t& r,
+                        float& t_max, float& t_delta) {
+    i = from[a];
+    const std::int32_t e = to[a];
+    s = e >= i ? 1 : -1;
+    r = std::abs(e - i);
+    const float di = d[static_cast<int>(a)];
+    if (i == e || di == 0.f) {
+      t_max = std::numeric_limits<float>::infinity();
+      t_delta = std::numeric_limits<float>::infinity();
+      return;
+    }
+    const float boundary = static_cast<float>(i + (s > 0 ? 1 : 0)) * res;
+    t_max = (boundary - from_point[static_cast<int>(a)]) / di;
+    t_delta = res / std::fabs(di);
+  };
+  axis(0, w.ix, w.sx, w.rx, w.tx, w.dx);
+  axis(1, w.iy, w.sy, w.ry, w.ty, w.dy);
+  axis(2, w.iz, w.sz, w.rz, w.tz, w.dz);
+  // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in its last voxel whatever the
+  // rounding; an axis that reached its end index gets t = inf. The exact walk of a hit ray
+  // stops before its end voxel, which already holds this frame's hit; the early-stop walk of a
+  // hit ray starts on it (its hit stamp keeps it from being updated).
+  w.visits = static_cast<std::size_t>(w.rx + w.ry + w.rz) + (from_end || !end_is_hit ? 1u : 0u);
+  return true;
+}
+
+/// Walks ordered_rays_[begin, end) in order within k's visit budget.
+template <bool kEarlyStop, class Cursor>
+void OccupancyMap::carve_rays(std::size_t begin, std::size_t end, const DepthView& depth,
+                              const IndexVec& camera, Cursor& cursor,
+                              CarveCounters& k) const noexcept {
+  for (std::size_t r = begin; r < end; ++r) {
+    if (k.visits_left == 0) {
+      k.rays_dropped += end - r;  // the budget is spent
+      return;
+    }
+    detail::RayWalk w;
+    if (!start_ray(ordered_rays_[r], depth, camera, kEarlyStop, w)) continue;
+    ++k.rays;
+    std::size_t steps = w.visits;
+    const bool capped = steps > k.visits_left;
+    if (capped) steps = k.visits_left;
+    k.visits_left -= steps;
+    k.visits += steps;
+    cursor.run = 0;
+    const std::size_t left = detail::walk_ray<kBlockBits>(w, steps, cursor);
+    if (left > 0) {
+      // The voxels after the stopping one were never looked at: back to the budget.
+      k.visits_left += left - 1;
+      k.visits -= left - 1;
+      ++k.rays_stopped;
+    } else if (capped) {
+      ++k.rays_dropped;
+    }
+  }
+}
+
+/// Carving on the map itself (carve_tiles = 0): each visit updates the voxel at once.
+template <bool kEarlyStop>
+struct OccupancyMap::SequentialCursor {
+  OccupancyMap& map;
+  const LocalGrid grid;
+  CarveCounters& k;
+  const std::uint16_t hit_stamp, miss_stamp;
+  const std::int32_t q_miss, q_min, q_occupied;
+  const std::uint32_t stop_after;
+  Block* block = nullptr;
+  std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
+  std::uint32_t run = 0;       // consecutive voxels found missed this frame (early stop)
+
+  void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t n) noexcept {
+    block = map.local_block(grid, bi, bj, bk);
+    if (block != nullptr) return;
+    // Visits there are counted as dropped updates; the sink's stamps all read "hit this frame",
+    // so the hot loop needs no null test, and an early-stop walk is not stopped there (hits
+    // never stop a ray).
+    if (map.sink_tag_ != map.frame_tag_) {
+      for (Voxel& vx : map.sink_.voxels) vx.stamp = hit_stamp;
+      map.sink_tag_ = map.frame_tag_;
+    }
+    block = &map.sink_;
+    sink_entry = n;
+  }
+  void leave(std::size_t n) noexcept {
+    if (block == &map.sink_) k.dropped_updates += sink_entry - n;
+  }
+  void miss(Voxel& vx) noexcept {
+    const std::int16_t old = vx.log_odds;
+    const std::int32_t current = old == kUnknown ? 0 : old;
+    const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+    vx.log_odds = updated;
+    vx.stamp = miss_stamp;
+    ++k.updates;
+    // A miss can only turn occupied into free.
+    if (old > q_occupied && updated <= q_occupied) --block->occupied;
+  }
+  bool visit(std::int32_t li) noexcept {
+    Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
+    if constexpr (kEarlyStop) {
+      // Only misses count towards the stop: at grazing angles a ray crosses voxels that other
+      // pixels hit, and the space beyond them may still be this ray's alone.
+      const std::uint16_t stamp = vx.stamp;
+      if (stamp == miss_stamp) return ++run == stop_after;
+      run = 0;
+      if (stamp != hit_stamp) miss(vx);
+    } else {
+      // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most visits
+      // (near the camera) find the voxel already updated this frame.
+      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) miss(vx);
+    }
+    return false;
+  }
+};
 
 template <bool kEarlyStop>
 void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
-  // Counters live in locals (registers) for the hot loop and are stored once at the end.
-  std::size_t visits_left = config_.max_voxel_visits_per_frame;
-  std::size_t visits = 0, updates = 0, dropped_updates = 0, rays = 0, rays_dropped = 0;
-  std::size_t rays_stopped = 0;
-  const auto stop_after = static_cast<std::uint32_t>(config_.free_ray_early_stop);
-  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
-  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(base + kHit);
-  const std::uint16_t miss_stamp = static_cast<std::uint16_t>(base + kMiss);
-  const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
-  const float res = resolution_;
-  const LocalGrid grid = local_grid();
-  constexpr float kInf = std::numeric_limits<float>::infinity();
   IndexVec camera{};
   if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
-  const std::int32_t width = cam_->width;
+  const std::size_t rays = order_rays(1, kEarlyStop);
+  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
+  CarveCounters k{};
+  k.visits_left = config_.max_voxel_visits_per_frame;
+  SequentialCursor<kEarlyStop> cursor{*this,
+                                      local_grid(),
+                                      k,
+                                      static_cast<std::uint16_t>(base + kHit),
+                                      static_cast<std::uint16_t>(base + kMiss),
+                                      q_miss_,
+                                      q_min_,
+                                      q_occupied_,
+                                      static_cast<std::uint32_t>(config_.free_ray_early_stop)};
+  carve_rays<kEarlyStop>(0, rays, depth, camera, cursor, k);
+  stats_.rays += k.rays;
+  stats_.rays_stopped_early += k.rays_stopped;
+  stats_.rays_dropped += k.rays_dropped;
+  stats_.voxel_visits += k.visits;
+  stats_.voxel_updates += k.updates;
+  stats_.updates_dropped += k.dropped_updates;
+}
 
-  // Early stop walks the rays coarse to fine over the sampled pixel grid: first the pixels on
-  // the lattice 2^kOrderLevels samples apart, then each finer lattice's new pixels (image
-  // order within a level). In plain image order a ray stops as soon as it has run N voxels
-  // inside its neighbour's tube, although the two lines still part at voxel corners nearer
-  // the camera; here the rays that walk first are far apart, so they walk almost to the
-  // camera and carve the near part densely before the finer rays stop against them. For the
-  // same number of visits it skips a third to half fewer misses (docs/occupancy_map.md).
-  constexpr std::uint32_t kOrderLevels = 4;
-  constexpr int kLevelShift = 28;  // rays_ entries: pass number above the pixel index
-  constexpr std::uint32_t kPixelMask = (1u << kLevelShift) - 1;
-  static_assert(kMaxImageWidth * kMaxImageHeight <= (1 << kLevelShift), "pixel index bits");
-  if constexpr (kEarlyStop) {
-    const auto margin = static_cast<std::uint32_t>(config_.pixel_margin);
-    const auto stride = static_cast<std::uint32_t>(config_.pixel_stride);
-    for (std::size_t r = 0; r < ray_count_; ++r) {
-      const std::uint32_t u = rays_[r] % static_cast<std::uint32_t>(width);
-      const std::uint32_t v = rays_[r] / static_cast<std::uint32_t>(width);
-      // Level of sampled pixel (k, j): the trailing zero bits k and j share, at most
-      // kOrderLevels.
-      const std::uint32_t kj = ((u - margin) / stride) | ((v - margin) / stride);
-      std::uint32_t level = 0;
-      while (level < kOrderLevels && ((kj >> level) & 1u) == 0) ++level;
-      rays_[r] |= (kOrderLevels - level) << kLevelShift;
+// --- Tiled carving (carve_tiles > 0) ---------------------------------------------------------
+// Each tile walks its rays exactly as the sequential carving does, but reads and writes its own
+// mark sets instead of the voxels' miss stamps (hit stamps, written by pass 1, are only read).
+// Tiles are claimed by the team's members through one atomic counter; what a tile computes
+// depends only on its rays and pass 1, so the members' speed and number do not matter. The
+// union of the marks is then applied once per voxel, each cell by one member.
+
+/// One tile's walk: marks in the tile's scratch, hit stamps read from the map.
+template <bool kEarlyStop>
+struct OccupancyMap::TileCursor {
+  const OccupancyMap& map;
+  const LocalGrid grid;
+  TileScratch& tile;
+  const std::uint16_t hit_stamp;
+  const std::uint32_t stop_after;
+  const Block* block = nullptr;
+  std::uint64_t* marks = nullptr;
+  std::uint32_t run = 0;
+
+  void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t) noexcept {
+    const auto gi = static_cast<std::uint32_t>(bi - grid.origin[0]);
+    const auto gj = static_cast<std::uint32_t>(bj - grid.origin[1]);
+    const auto gk = static_cast<std::uint32_t>(bk - grid.origin[2]);
+    if (gi >= grid.dim[0] || gj >= grid.dim[1] || gk >= grid.dim[2]) {
+      // Cannot happen (rays stay in the local region, inside the grid): nothing is kept.
+      block = &map.empty_block_;
+      marks = tile.discard.data();
+      return;
+    }
+    const std::uint32_t cell = gi + grid.dim[0] * (gj + grid.dim[1] * gk);
+    const std::uint16_t slot = grid.cells[cell];
+    // A cell pass 1 did not resolve holds no hit of this frame.
+    block = slot != 0 ? &map.pool_[slot - 1u] : &map.empty_block_;
+    std::uint16_t& set = tile.slot_of_cell[cell];
+    if (set == 0) {
+      tile.cells[tile.cell_count] = static_cast<std::uint16_t>(cell);
+      tile.marks[tile.cell_count].fill(0);
+      set = static_cast<std::uint16_t>(++tile.cell_count);
+    }
+    marks = tile.marks[set - 1u].data();
+  }
+  void leave(std::size_t) noexcept {}
+  bool visit(std::int32_t li) noexcept {
+    std::uint64_t& word = marks[li >> 6];
+    const std::uint64_t bit = std::uint64_t{1} << (li & 63);
+    if ((word & bit) != 0) {
+      if constexpr (kEarlyStop) return ++run == stop_after;
+      return false;
+    }
+    run = 0;
+    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp) word |= bit;
+    return false;
+  }
+};
+
+template <bool kEarlyStop>
+void OccupancyMap::carve_tile(std::size_t t, const DepthView& depth) noexcept {
+  TileScratch& tile = tiles_[t];
+  for (std::size_t s = 0; s < tile.cell_count; ++s) tile.slot_of_cell[tile.cells[s]] = 0;
+  tile.cell_count = 0;
+  tile.counters = CarveCounters{};
+  IndexVec camera{};
+  if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
+  tile.counters.visits_left = std::max<std::size_t>(
+      1, config_.max_voxel_visits_per_frame / static_cast<std::size_t>(config_.carve_tiles));
+  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kHit);
+  TileCursor<kEarlyStop> cursor{*this, local_grid(), tile, hit_stamp,
+                                static_cast<std::uint32_t>(config_.free_ray_early_stop)};
+  carve_rays<kEarlyStop>(tile.ray_begin, tile.ray_end, depth, camera, cursor, tile.counters);
+}
+
+/// The union of the tiles' marks per cell, in a fixed order (tile, then cell entry order),
+/// with the cell's block acquired (allocated, evicting if needed) on this thread. Returns the
+/// cells with any mark.
+std::size_t OccupancyMap::collect_tile_marks() noexcept {
+  const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
+  std::fill(merged_seen_.begin(), merged_seen_.end(), std::uint64_t{0});
+  const LocalGrid grid = local_grid();
+  std::size_t m = 0;
+  for (std::size_t t = 0; t < tiles; ++t) {
+    for (std::size_t s = 0; s < tiles_[t].cell_count; ++s) {
+      const std::uint32_t cell = tiles_[t].cells[s];
+      std::uint64_t& seen = merged_seen_[cell >> 6];
+      const std::uint64_t bit = std::uint64_t{1} << (cell & 63);
+      if ((seen & bit) != 0) continue;
+      seen |= bit;
+      auto& marks = merged_marks_[m];
+      marks.fill(0);
+      std::uint64_t any = 0;
+      for (std::size_t o = t; o < tiles; ++o) {
+        const std::uint16_t set = tiles_[o].slot_of_cell[cell];
+        if (set == 0) continue;
+        for (std::size_t w = 0; w < marks.size(); ++w) marks[w] |= tiles_[o].marks[set - 1u][w];
+      }
+      for (const std::uint64_t w : marks) any |= w;
+      if (any == 0) continue;
+      const std::uint32_t gi = cell % grid.dim[0];
+      const std::uint32_t gj = (cell / grid.dim[0]) % grid.dim[1];
+      const std::uint32_t gk = cell / (grid.dim[0] * grid.dim[1]);
+      merged_block_[m] = local_block(grid, grid.origin[0] + static_cast<std::int32_t>(gi),
+                                     grid.origin[1] + static_cast<std::int32_t>(gj),
+                                     grid.origin[2] + static_cast<std::int32_t>(gk));
+      ++m;
     }
   }
-  std::size_t processed = 0;
-  const std::uint32_t passes = kEarlyStop ? kOrderLevels + 1 : 1;
-  for (std::uint32_t pass = 0; pass < passes; ++pass) {
-    for (std::size_t r = 0; r < ray_count_; ++r) {
-      std::uint32_t entry = rays_[r];
-      if constexpr (kEarlyStop) {
-        if ((entry >> kLevelShift) != pass) continue;
-        entry &= kPixelMask;
-      }
-      if (visits_left == 0) {
-        rays_dropped += ray_count_ - processed;
-        pass = passes;  // the budget is spent: no later pass either
-        break;
-      }
-      ++processed;
-      const int u = static_cast<int>(entry % static_cast<std::uint32_t>(width));
-      const int v = static_cast<int>(entry / static_cast<std::uint32_t>(width));
-      Eigen::Array4f end;
-      bool end_is_hit = false;
-      IndexVec last{};
-      if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v),
-                     end, last, end_is_hit)) {
+  return m;
+}
+
+/// Member `member`'s share of the merged cells: one miss per marked voxel (marks never fall on
+/// this frame's hits). Cells are whole blocks, so members never write the same block.
+void OccupancyMap::apply_tile_marks(unsigned member) noexcept {
+  const std::size_t members = team_.size();
+  const std::size_t begin = merged_count_ * member / members;
+  const std::size_t end = merged_count_ * (member + 1) / members;
+  const auto miss_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kMiss);
+  const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
+  std::size_t updates = 0, dropped = 0;
+  for (std::size_t m = begin; m < end; ++m) {
+    Block* block = merged_block_[m];
+    for (std::size_t w = 0; w < merged_marks_[m].size(); ++w) {
+      std::uint64_t bits = merged_marks_[m][w];
+      if (block == nullptr) {
+        dropped += static_cast<std::size_t>(__builtin_popcountll(bits));
         continue;
       }
-      ++rays;
-
-      // Amanatides-Woo set-up, parameter t in [0, 1] along from_point -> from_point + d. The exact
-      // walk goes from the camera to the end voxel. The early-stop walk goes from the end voxel
-      // back to the camera: the far part of a ray is its own, the near part mostly what earlier
-      // rays (its neighbours in pixel order) already carved, so that is where it can stop.
-      const Eigen::Array4f from_point = kEarlyStop ? end : origin4_;
-      const Eigen::Array4f d = kEarlyStop ? Eigen::Array4f(origin4_ - end) : end - origin4_;
-      const IndexVec& from = kEarlyStop ? last : camera;
-      const IndexVec& to = kEarlyStop ? camera : last;
-      std::int32_t ix = from[0], iy = from[1], iz = from[2];
-      const std::int32_t ex = to[0], ey = to[1], ez = to[2];
-      const std::int32_t sx = ex >= ix ? 1 : -1, sy = ey >= iy ? 1 : -1, sz = ez >= iz ? 1 : -1;
-      const auto axis_setup = [&](std::int32_t i, std::int32_t e, std::int32_t s, float o, float di,
-                                  float& t_max, float& t_delta) {
-        if (i == e || di == 0.f) {
-          t_max = kInf;
-          t_delta = kInf;
-          return;
-        }
-        const float boundary = static_cast<float>(i + (s > 0 ? 1 : 0)) * res;
-        t_max = (boundary - o) / di;
-        t_delta = res / std::fabs(di);
-      };
-      float tx, ty, tz, dx, dy, dz;
-      axis_setup(ix, ex, sx, from_point.x(), d.x(), tx, dx);
-      axis_setup(iy, ey, sy, from_point.y(), d.y(), ty, dy);
-      axis_setup(iz, ez, sz, from_point.z(), d.z(), tz, dz);
-      // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in its last voxel whatever the
-      // rounding; an axis that reached its end index gets t = inf. The exact walk of a hit ray
-      // stops before its end voxel, which already holds this frame's hit; the early-stop walk of
-      // a hit ray starts on it (its hit stamp keeps it from being updated).
-      std::size_t steps =
-          static_cast<std::size_t>(std::abs(ex - ix) + std::abs(ey - iy) + std::abs(ez - iz)) +
-          (kEarlyStop || !end_is_hit ? 1u : 0u);
-      bool capped = false;
-      if (steps > visits_left) {
-        steps = visits_left;
-        capped = true;
-      }
-      visits_left -= steps;
-      visits += steps;
-
-      // The walk keeps the block, the voxel's index inside it and, per axis, the steps left to
-      // the next event of that axis: its block face or its last step, whichever comes first.
-      // Between events a step is one axis choice, one index add, one t add and one decrement;
-      // steps, end indices and block faces are only looked at in the (rare) event branch. The t
-      // values get the same float additions in the same order as the plain walk, so the voxels
-      // are the same.
-      constexpr std::int32_t kM = kBlockEdge - 1;
-      std::int32_t bx = ix >> kBlockBits, by = iy >> kBlockBits, bz = iz >> kBlockBits;
-      std::int32_t rx = std::abs(ex - ix), ry = std::abs(ey - iy), rz = std::abs(ez - iz);
-      const auto to_boundary = [](std::int32_t i, std::int32_t s) {
-        return s > 0 ? kBlockEdge - (i & kM) : (i & kM) + 1;
-      };
-      std::int32_t cx = to_boundary(ix, sx), cy = to_boundary(iy, sy), cz = to_boundary(iz, sz);
-      // An axis without steps has t = inf and is never chosen, so its event count never runs out.
-      const auto to_event = [](std::int32_t face, std::int32_t left) {
-        return left == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(face, left);
-      };
-      std::int32_t kx = to_event(cx, rx), ky = to_event(cy, ry), kz = to_event(cz, rz);
-      const std::int32_t ox = sx, oy = sy * kBlockEdge, oz = sz * kBlockEdge * kBlockEdge;
-      std::int32_t li = static_cast<std::int32_t>(local_index(ix, iy, iz));
-      Block* block = nullptr;
-      std::size_t n = steps;       // visits left on this ray, including the current voxel
-      std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
-      const auto enter_block = [&](std::int32_t i, std::int32_t j, std::int32_t k) {
-        block = local_block(grid, i, j, k);
-        if (block != nullptr) return;
-        // Visits there are counted as dropped updates; the sink's stamps all read "hit this
-        // frame", so the hot loop needs no null test, and an early-stop walk is not stopped
-        // there (hits never stop a ray).
-        if (sink_tag_ != frame_tag_) {
-          for (Voxel& vx : sink_.voxels) vx.stamp = hit_stamp;
-          sink_tag_ = frame_tag_;
-        }
-        block = &sink_;
-        sink_entry = n;
-      };
-      const auto leave_block = [&] {
-        if (block == &sink_) dropped_updates += sink_entry - n;
-      };
-      enter_block(bx, by, bz);
-      if (n == 0) continue;
-      std::uint32_t run = 0;  // consecutive voxels found missed this frame (early stop)
-      bool stopped = false;
-      const auto miss = [&](Voxel& vx) {
+      while (bits != 0) {
+        const std::size_t li = w * 64 + static_cast<std::size_t>(__builtin_ctzll(bits));
+        bits &= bits - 1;
+        Voxel& vx = block->voxels[li];
         const std::int16_t old = vx.log_odds;
         const std::int32_t current = old == kUnknown ? 0 : old;
         const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
         vx.log_odds = updated;
         vx.stamp = miss_stamp;
         ++updates;
-        // A miss can only turn occupied into free.
         if (old > q_occupied && updated <= q_occupied) --block->occupied;
-      };
-      for (;;) {
-        Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
-        if constexpr (kEarlyStop) {
-          // Only misses count towards the stop: at grazing angles a ray crosses voxels that
-          // other pixels hit, and the space beyond them may still be this ray's alone.
-          const std::uint16_t stamp = vx.stamp;
-          if (stamp == miss_stamp) {
-            if (++run == stop_after) {
-              stopped = true;
-              break;
-            }
-          } else {
-            run = 0;
-            if (stamp != hit_stamp) miss(vx);
-          }
-        } else {
-          // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most
-          // visits (near the camera) find the voxel already updated this frame.
-          if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) miss(vx);
-        }
-        if (--n == 0) break;
-        // Step along the axis with the nearest boundary (ties to the lower axis).
-        if ((tx <= ty) & (tx <= tz)) {
-          li += ox;
-          if (--kx != 0) {
-            tx += dx;
-            continue;
-          }
-          const std::int32_t done = std::min(cx, rx);
-          rx -= done;
-          cx -= done;
-          tx = rx == 0 ? kInf : tx + dx;
-          if (cx == 0) {
-            li -= kBlockEdge * ox;  // wrap to the other face of the next block
-            bx += sx;
-            cx = kBlockEdge;
-            leave_block();
-            enter_block(bx, by, bz);
-          }
-          kx = to_event(cx, rx);
-        } else if (ty <= tz) {
-          li += oy;
-          if (--ky != 0) {
-            ty += dy;
-            continue;
-          }
-          const std::int32_t done = std::min(cy, ry);
-          ry -= done;
-          cy -= done;
-          ty = ry == 0 ? kInf : ty + dy;
-          if (cy == 0) {
-            li -= kBlockEdge * oy;
-            by += sy;
-            cy = kBlockEdge;
-            leave_block();
-            enter_block(bx, by, bz);
-          }
-          ky = to_event(cy, ry);
-        } else {
-          li += oz;
-          if (--kz != 0) {
-            tz += dz;
-            continue;
-          }
-          const std::int32_t done = std::min(cz, rz);
-          rz -= done;
-          cz -= done;
-          tz = rz == 0 ? kInf : tz + dz;
-          if (cz == 0) {
-            li -= kBlockEdge * oz;
-            bz += sz;
-            cz = kBlockEdge;
-            leave_block();
-            enter_block(bx, by, bz);
-          }
-          kz = to_event(cz, rz);
-        }
-      }
-      leave_block();
-      if (stopped) {
-        // The voxels after the current one were never looked at: give them back to the budget.
-        visits_left += n - 1;
-        visits -= n - 1;
-        ++rays_stopped;
-      } else if (capped) {
-        ++rays_dropped;
       }
     }
   }
-  stats_.rays += rays;
-  stats_.rays_stopped_early += rays_stopped;
-  stats_.rays_dropped += rays_dropped;
-  stats_.voxel_visits += visits;
-  stats_.voxel_updates += updates;
-  stats_.updates_dropped += dropped_updates;
+  member_updates_[member] = {updates, dropped};
 }
 
-Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& cam,
-                               const Pose& T_map_camera, Stamp stamp) noexcept {
-  if (!initialized_) return Status::kNotInitialized;
-  if (const Status s = validate_depth(depth, cam); !ok(s)) return s;
-  if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) return Status::kWrongSize;
-  if (!finite_positive(cam.fx) || !finite_positive(cam.fy) || !std::isfinite(cam.cx) ||
-      !std::isfinite(cam.cy) || !finite_positive(cam.depth_scale)) {
-    return Status::kInvalidArgument;
+void OccupancyMap::carve_tiles_in_team(const DepthView& depth) noexcept {
+  const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
+  order_rays(config_.carve_tiles, config_.free_ray_early_stop > 0);
+  team_depth_ = &depth;
+  next_tile_.store(0, std::memory_order_relaxed);
+  team_.run(
+      [](void* self, unsigned member) {
+        auto& map = *static_cast<OccupancyMap*>(self);
+        if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
+        const auto count = static_cast<std::uint32_t>(map.config_.carve_tiles);
+        for (std::uint32_t t = map.next_tile_.fetch_add(1, std::memory_order_relaxed); t < count;
+             t = map.next_tile_.fetch_add(1, std::memory_order_relaxed)) {
+          if (map.config_.free_ray_early_stop > 0) {
+            map.carve_tile<true>(t, *map.team_depth_);
+          } else {
+            map.carve_tile<false>(t, *map.team_depth_);
+          }
+        }
+      },
+      this);
+  for (std::size_t t = 0; t < tiles; ++t) {
+    const CarveCounters& k = tiles_[t].counters;
+    stats_.rays += k.rays;
+    stats_.rays_stopped_early += k.rays_stopped;
+    stats_.rays_dropped += k.rays_dropped;
+    stats_.voxel_visits += k.visits;
   }
-  if (const Status s = validate_pose(T_map_camera); !ok(s)) return s;
-  // Keep the local region well inside the key range.
-  if (const Status s = check_pose_range(T_map_camera); !ok(s)) return s;
-  if (frames_ > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+  merged_count_ = collect_tile_marks();
+  team_.run([](void* self,
+               unsigned member) { static_cast<OccupancyMap*>(self)->apply_tile_marks(member); },
+            this);
+  for (unsigned m = 0; m < team_.size(); ++m) {
+    stats_.voxel_updates += member_updates_[m][0];
+    stats_.updates_dropped += member_updates_[m][1];
+  }
+  team_depth_ = nullptr;
+}
 
-  // Input accepted: from here on the frame always completes.
-  stats_ = IntegrationStats{};
-  ++frames_;
-  last_stamp_ = stamp;
-  advance_frame_stamp();
-  evictions_this_frame_ = 0;
-  ray_count_ = 0;
+/// Per-frame constants of both passes: depth classes, ray directions, key base, block grid.
+void OccupancyMap::set_frame_geometry(const CameraIntrinsics& cam,
+                                      const Pose& T_map_camera) noexcept {
   cam_ = &cam;
   depth_scale_ = cam.depth_scale;
   // Pass 1 classifies raw depths with integer compares, exactly as end_point() does with floats.
@@ -979,13 +1271,47 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
     std::fill(local_grid_.begin(), local_grid_.begin() + static_cast<std::ptrdiff_t>(grid_cells_),
               std::uint16_t{0});
   }
+}
+
+Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& cam,
+                               const Pose& T_map_camera, Stamp stamp) noexcept {
+  if (!initialized_) return Status::kNotInitialized;
+  if (const Status s = validate_depth(depth, cam); !ok(s)) return s;
+  if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) return Status::kWrongSize;
+  if (!finite_positive(cam.fx) || !finite_positive(cam.fy) || !std::isfinite(cam.cx) ||
+      !std::isfinite(cam.cy) || !finite_positive(cam.depth_scale)) {
+    return Status::kInvalidArgument;
+  }
+  if (const Status s = validate_pose(T_map_camera); !ok(s)) return s;
+  // Keep the local region well inside the key range.
+  if (const Status s = check_pose_range(T_map_camera); !ok(s)) return s;
+  if (frames_ > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+
+  // Input accepted: from here on the frame always completes.
+  stats_ = IntegrationStats{};
+  ++frames_;
+  last_stamp_ = stamp;
+  advance_frame_stamp();
+  evictions_this_frame_ = 0;
+  ray_count_ = 0;
+  set_frame_geometry(cam, T_map_camera);
 
   // Pass 1: end points. Hits are applied here (once per voxel), so pass 2's misses skip them:
   // hit wins over miss. Rays ending in an already-seen voxel are merged (when enabled).
-  mark_end_points(depth);
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  const std::size_t samples =
+      static_cast<std::size_t>(sampled_columns_) *
+      static_cast<std::size_t>(std::max(0, (cam.height - 2 * margin + stride - 1) / stride));
+  if (config_.carve_tiles > 0 && samples <= config_.max_rays_per_frame) {
+    mark_end_points_in_team(depth);
+  } else {
+    mark_end_points(depth);
+  }
 
   // Pass 2: free space along each ray with a 3-D DDA, within the visit budget.
-  if (config_.free_ray_early_stop > 0) {
+  if (config_.carve_tiles > 0) {
+    carve_tiles_in_team(depth);
+  } else if (config_.free_ray_early_stop > 0) {
     carve_free_space<true>(depth);
   } else {
     carve_free_space<false>(depth);

@@ -90,6 +90,8 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
             "map.local_half_extent",
             "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "
             "(bounds the length of every ray)");
+  k.require(m.threads == 1 || m.carve_tiles > 0, "map.threads",
+            "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
   k.require(c.detector.d_max > c.detector.d_min, "detector.d_max", "must be > detector.d_min");
   k.require(!c.budgets.adaptive_stride || c.budgets.max_pixel_stride >= m.pixel_stride,
             "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");

@@ -1,8 +1,10 @@
 // Set-up of the Amanatides-Woo voxel walk shared by the map's segment queries (internal).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <limits>
@@ -34,6 +36,59 @@ struct SegmentWalk {
     }
     return ax;
   }
+
+  /// Crosses the rest of the block of 2^kBits voxels the walk is in, where `inside` holds the
+  /// steps each axis can make before it leaves the block, counting the visits into n (capped
+  /// at max_visits). False when the segment ends inside the block or the cap is reached.
+  ///
+  /// Each axis's t sequence (t_max, t_max + t_delta, ...) does not depend on the other axes,
+  /// and the walk visits the merged sequence in (t, axis) order, so the step that leaves the
+  /// block is the axis whose boundary-crossing t is smallest (ties to the lower axis, as in
+  /// advance()). The same float additions are made in the same order, so the walk ends in the
+  /// voxel advance() would reach, with the same state.
+  bool cross_block(std::array<std::int32_t, 3>& idx, const std::int32_t inside[3], std::size_t& n,
+                   std::size_t max_visits) noexcept {
+    constexpr float kInf = std::numeric_limits<float>::infinity();
+    // t of each axis's boundary-crossing step (inf when its steps run out first).
+    float cross[3];
+    for (std::size_t ax = 0; ax < 3; ++ax) {
+      cross[ax] = kInf;
+      if (inside[ax] + 1 > remaining[ax]) continue;
+      float t = t_max[ax];
+      for (std::int32_t s = 0; s < inside[ax]; ++s) t += t_delta[ax];
+      cross[ax] = t;
+    }
+    std::size_t exit_ax = 0;
+    if (cross[1] < cross[exit_ax]) exit_ax = 1;
+    if (cross[2] < cross[exit_ax]) exit_ax = 2;
+    if (cross[exit_ax] == kInf) return false;  // the segment ends inside this block
+    const float t_exit = cross[exit_ax];
+    std::size_t steps = 0;
+    for (std::size_t ax = 0; ax < 3; ++ax) {
+      if (ax == exit_ax) continue;
+      // Steps of this axis that come before the exit step in (t, axis) order.
+      const std::int32_t limit = std::min(inside[ax], remaining[ax]);
+      std::int32_t k = 0;
+      float t = t_max[ax];
+      while (k < limit && (t < t_exit || (t == t_exit && ax < exit_ax))) {
+        ++k;
+        t = k == remaining[ax] ? kInf : t + t_delta[ax];
+      }
+      idx[ax] += k * step[ax];
+      remaining[ax] -= k;
+      t_max[ax] = t;
+      steps += static_cast<std::size_t>(k);
+    }
+    steps += static_cast<std::size_t>(inside[exit_ax]);
+    // Visits in this block: the current voxel and one per step inside it.
+    if (n + steps + 1 >= max_visits) return false;
+    n += steps + 1;
+    const std::int32_t k = inside[exit_ax] + 1;
+    idx[exit_ax] += k * step[exit_ax];
+    remaining[exit_ax] -= k;
+    t_max[exit_ax] = remaining[exit_ax] == 0 ? kInf : t_exit + t_delta[exit_ax];
+    return true;
+  }
 };
 
 inline SegmentWalk start_segment_walk(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
@@ -58,6 +113,117 @@ inline SegmentWalk start_segment_walk(const Eigen::Vector3f& a, const Eigen::Vec
     w.t_delta[ax] = resolution / std::fabs(d[e]);
   }
   return w;
+}
+
+/// One free-space ray of the map's pass 2: Amanatides-Woo state from its first voxel (t in
+/// [0, 1] along the ray; inf on an axis without steps).
+struct RayWalk {
+  std::int32_t ix, iy, iz;  ///< first voxel
+  std::int32_t sx, sy, sz;  ///< step signs
+  std::int32_t rx, ry, rz;  ///< steps left per axis
+  float tx, ty, tz;         ///< t of the next boundary per axis
+  float dx, dy, dz;         ///< t between boundaries per axis
+  std::size_t visits;       ///< voxels to visit, the first one included
+};
+
+/// Walks `n` voxels of `w` (blocks of 2^kBits voxels per edge), calling cursor.enter(bi, bj,
+/// bk, n) on each block entered, cursor.visit(li) on each voxel (li: index inside the block;
+/// true stops the walk) and cursor.leave(n) on leaving a block. Returns the visits left,
+/// the stopping voxel included, when the cursor stopped the walk; 0 when it ran to the end.
+///
+/// The walk keeps the voxel's index inside its block and, per axis, the steps left to the next
+/// event of that axis: its block face or its last step, whichever comes first. Between events
+/// a step is one axis choice, one index add, one t add and one decrement; steps, end indices
+/// and block faces are only looked at in the (rare) event branch. The t values get the same
+/// float additions in the same order as the plain voxel walk, so the voxels are the same.
+template <int kBits, class Cursor>
+std::size_t walk_ray(RayWalk& w, std::size_t n, Cursor& cursor) noexcept {
+  constexpr std::int32_t kEdge = 1 << kBits;
+  constexpr std::int32_t kM = kEdge - 1;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  std::int32_t bx = w.ix >> kBits, by = w.iy >> kBits, bz = w.iz >> kBits;
+  const auto to_boundary = [](std::int32_t i, std::int32_t s) {
+    return s > 0 ? kEdge - (i & kM) : (i & kM) + 1;
+  };
+  std::int32_t cx = to_boundary(w.ix, w.sx), cy = to_boundary(w.iy, w.sy),
+               cz = to_boundary(w.iz, w.sz);
+  // An axis without steps has t = inf and is never chosen, so its event count never runs out.
+  const auto to_event = [](std::int32_t face, std::int32_t left) {
+    return left == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(face, left);
+  };
+  std::int32_t rx = w.rx, ry = w.ry, rz = w.rz;
+  float tx = w.tx, ty = w.ty, tz = w.tz;
+  const float dx = w.dx, dy = w.dy, dz = w.dz;
+  std::int32_t kx = to_event(cx, rx), ky = to_event(cy, ry), kz = to_event(cz, rz);
+  const std::int32_t ox = w.sx, oy = w.sy * kEdge, oz = w.sz * kEdge * kEdge;
+  std::int32_t li = (w.ix & kM) | ((w.iy & kM) << kBits) | ((w.iz & kM) << (2 * kBits));
+  cursor.enter(bx, by, bz, n);
+  if (n == 0) return 0;
+  for (;;) {
+    if (cursor.visit(li)) {
+      cursor.leave(n);
+      return n;
+    }
+    if (--n == 0) break;
+    // Step along the axis with the nearest boundary (ties to the lower axis).
+    if ((tx <= ty) & (tx <= tz)) {
+      li += ox;
+      if (--kx != 0) {
+        tx += dx;
+        continue;
+      }
+      const std::int32_t done = std::min(cx, rx);
+      rx -= done;
+      cx -= done;
+      tx = rx == 0 ? kInf : tx + dx;
+      if (cx == 0) {
+        li -= kEdge * ox;  // wrap to the other face of the next block
+        bx += w.sx;
+        cx = kEdge;
+        cursor.leave(n);
+        cursor.enter(bx, by, bz, n);
+      }
+      kx = to_event(cx, rx);
+    } else if (ty <= tz) {
+      li += oy;
+      if (--ky != 0) {
+        ty += dy;
+        continue;
+      }
+      const std::int32_t done = std::min(cy, ry);
+      ry -= done;
+      cy -= done;
+      ty = ry == 0 ? kInf : ty + dy;
+      if (cy == 0) {
+        li -= kEdge * oy;
+        by += w.sy;
+        cy = kEdge;
+        cursor.leave(n);
+        cursor.enter(bx, by, bz, n);
+      }
+      ky = to_event(cy, ry);
+    } else {
+      li += oz;
+      if (--kz != 0) {
+        tz += dz;
+        continue;
+      }
+      const std::int32_t done = std::min(cz, rz);
+      rz -= done;
+      cz -= done;
+      tz = rz == 0 ? kInf : tz + dz;
+      if (cz == 0) {
+        li -= kEdge * oz;
+        bz += w.sz;
+        cz = kEdge;
+        cursor.leave(n);
+        cursor.enter(bx, by, bz, n);
+      }
+      kz = to_event(cz, rz);
+    }
+  }
+  cursor.leave(0);
+  return 0;
 }
 
 }  // namespace dynamap::detail

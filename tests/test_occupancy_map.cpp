@@ -1,3 +1,5 @@
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -5,6 +7,7 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -892,6 +895,173 @@ TEST(OccupancyMap, EarlyStopRerunsAreBitIdentical) {
   tiny.max_blocks = 96;
   tiny.max_voxel_visits_per_frame = 40'000;
   EXPECT_EQ(integrate_walk(tiny, 12), integrate_walk(tiny, 12));
+}
+
+// ---- tiled carving on a worker team ----------------------------------------------------------
+
+/// integrate_walk()'s flight, also hashing the set of voxels each frame updated (hit or miss).
+std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int frames,
+                                          OccupancyMap::WorkerHook hook = nullptr) {
+  auto map = make_map(cfg);
+  OccupancyMap::set_worker_hook(hook);
+  const CameraIntrinsics cam = small_camera(320, 240);
+  const Scene scene = regression_room();
+  std::uint64_t h = 0;
+  for (int f = 0; f < frames; ++f) {
+    const float s = static_cast<float>(f) / static_cast<float>(frames);
+    const Pose pose = make_pose(Vec3(-1.5f + 2.5f * s, -0.8f + 1.2f * s, 1.1f + 0.3f * s),
+                                -1.2f + 4.0f * s, 0.15f * std::sin(7.f * s), 0.1f * s);
+    const DepthImage img = render(scene, cam, pose);
+    EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs),
+              Status::kOk);
+    const IntegrationStats& st = map->last_stats();
+    for (std::size_t x : {st.rays, st.rays_dropped, st.voxel_visits, st.voxel_updates, st.hits,
+                          st.blocks_allocated, st.blocks_evicted, st.updates_dropped,
+                          st.rays_stopped_early, st.rays_merged, st.pixels_sampled}) {
+      h = h * 1000003u + x;
+    }
+    std::uint64_t updated = 0;  // order independent: a sum of per-voxel hashes
+    map->for_each_updated_last_frame([&](OccupancyMap::VoxelKey k, bool hit) {
+      updated += (k * 0x9E3779B97F4A7C15ull) ^ (hit ? 0xABCDull : 0x1234ull);
+    });
+    h = h * 1000003u + updated;
+    h = h * 1000003u + map->checksum();
+  }
+  OccupancyMap::set_worker_hook(nullptr);
+  return h;
+}
+
+TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
+  for (int early_stop : {0, kEarlyStop}) {
+    for (int tiles : {1, 4, 8}) {
+      SCOPED_TRACE(testing::Message() << "early_stop " << early_stop << " tiles " << tiles);
+      OccupancyMapConfig cfg;
+      cfg.free_ray_early_stop = early_stop;
+      cfg.carve_tiles = tiles;
+      const std::uint64_t one = integrate_walk_with_updates(cfg, 12);
+      for (int threads = 2; threads <= kMaxMapThreads; ++threads) {
+        cfg.threads = threads;
+        EXPECT_EQ(integrate_walk_with_updates(cfg, 12), one) << threads << " threads";
+      }
+    }
+  }
+  // With a tiny pool (eviction every frame, blocks that cannot be allocated) and the visit cap.
+  OccupancyMapConfig tiny;
+  tiny.carve_tiles = 4;
+  tiny.max_blocks = 96;
+  tiny.max_voxel_visits_per_frame = 40'000;
+  const std::uint64_t one = integrate_walk_with_updates(tiny, 12);
+  tiny.threads = 3;
+  EXPECT_EQ(integrate_walk_with_updates(tiny, 12), one);
+  // With the ray cap below the sampled pixels, pass 1 runs on one thread (the cap is a
+  // pixel-order rule); pass 2 still on the team.
+  OccupancyMapConfig capped;
+  capped.carve_tiles = 4;
+  capped.max_rays_per_frame = 2000;
+  const std::uint64_t capped_one = integrate_walk_with_updates(capped, 6);
+  capped.threads = 2;
+  EXPECT_EQ(integrate_walk_with_updates(capped, 6), capped_one);
+}
+
+TEST(OccupancyMap, TiledCarvingChangesOnlyTheEarlyStoppedMisses) {
+  // What tiling changes: a tile's rays stop only against its own tiles' marks, so near the
+  // camera, where tiles' rays overlap, they may walk further (or, their tile's earlier rays
+  // having walked further, stop sooner) than in the one walk. Hits come from pass 1 and are
+  // identical; with the exact walk (no early stop) the misses are identical too.
+  for (int early_stop : {kEarlyStop, 0}) {
+    SCOPED_TRACE(early_stop);
+    OccupancyMapConfig one_walk;
+    one_walk.free_ray_early_stop = early_stop;
+    OccupancyMapConfig tiled = one_walk;
+    tiled.carve_tiles = 4;
+    tiled.threads = 2;
+    auto a = make_map(one_walk);
+    auto b = make_map(tiled);
+    const CameraIntrinsics cam = small_camera(320, 240);
+    const Scene scene = regression_room();
+    const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.05f, 0.f);
+    const DepthImage img = render(scene, cam, pose);
+    ASSERT_EQ(a->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
+    ASSERT_EQ(b->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
+    std::set<OccupancyMap::VoxelKey> hits_a, hits_b, misses_a, misses_b;
+    a->for_each_updated_last_frame(
+        [&](OccupancyMap::VoxelKey k, bool hit) { (hit ? hits_a : misses_a).insert(k); });
+    b->for_each_updated_last_frame(
+        [&](OccupancyMap::VoxelKey k, bool hit) { (hit ? hits_b : misses_b).insert(k); });
+    EXPECT_EQ(hits_a, hits_b);
+    EXPECT_EQ(a->last_stats().hits, b->last_stats().hits);
+    EXPECT_EQ(a->last_stats().rays, b->last_stats().rays);
+    std::size_t only_a = 0, only_b = 0;
+    for (const auto k : misses_a) only_a += misses_b.count(k) == 0 ? 1u : 0u;
+    for (const auto k : misses_b) only_b += misses_a.count(k) == 0 ? 1u : 0u;
+    std::printf(
+        "[ tiles ] early_stop %d: misses one walk %zu tiled %zu, only one walk %zu, only "
+        "tiled %zu; visits %zu vs %zu\n",
+        early_stop, misses_a.size(), misses_b.size(), only_a, only_b, a->last_stats().voxel_visits,
+        b->last_stats().voxel_visits);
+    if (early_stop == 0) {
+      EXPECT_EQ(misses_a, misses_b);
+      EXPECT_EQ(a->checksum(), b->checksum());
+    } else {
+      EXPECT_NE(misses_a, misses_b);  // the option does change the result
+    }
+  }
+}
+
+std::atomic<int> g_slow_member_calls{0};
+void delay_member_one(unsigned member) {
+  if (member != 1) return;
+  g_slow_member_calls.fetch_add(1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3));
+}
+
+TEST(OccupancyMap, ASlowWorkerDelaysTheFrameButNeverChangesIt) {
+  OccupancyMapConfig cfg;
+  cfg.carve_tiles = 4;
+  const std::uint64_t one = integrate_walk_with_updates(cfg, 8);
+  cfg.threads = 2;
+  g_slow_member_calls = 0;
+  EXPECT_EQ(integrate_walk_with_updates(cfg, 8, &delay_member_one), one);
+  EXPECT_EQ(g_slow_member_calls.load(), 8);  // once per frame: the team did run the frames
+}
+
+TEST(OccupancyMap, ThreadsAndTilesAreValidated) {
+  auto map = std::make_unique<OccupancyMap>();
+  OccupancyMapConfig cfg;
+  for (const auto& [tiles, threads] : std::vector<std::pair<int, int>>{
+           {-1, 1}, {kMaxCarveTiles + 1, 1}, {4, 0}, {4, kMaxMapThreads + 1}, {0, 2}}) {
+    cfg.carve_tiles = tiles;
+    cfg.threads = threads;
+    EXPECT_EQ(map->init(cfg), Status::kInvalidArgument) << tiles << " " << threads;
+  }
+  cfg.carve_tiles = 4;
+  cfg.threads = 2;
+  cfg.local_half_extent = Vec3(20.f, 20.f, 5.f);  // a local grid beyond kMaxTileCells
+  EXPECT_EQ(map->init(cfg), Status::kInvalidArgument);
+  cfg.local_half_extent = OccupancyMapConfig{}.local_half_extent;
+  EXPECT_EQ(map->init(cfg), Status::kOk);
+  cfg.threads = 3;  // re-init restarts the team with another size
+  EXPECT_EQ(map->init(cfg), Status::kOk);
+  cfg.threads = 1;
+  cfg.carve_tiles = 0;
+  EXPECT_EQ(map->init(cfg), Status::kOk);
+}
+
+TEST(OccupancyMap, NoHeapAllocationWithTwoThreads) {
+  OccupancyMapConfig cfg;
+  cfg.carve_tiles = 4;
+  cfg.threads = 2;
+  check_no_allocation(cfg);
+}
+
+TEST(OccupancyMap, DestroyedRightAfterAFrameOnTheTeamJoinsCleanly) {
+  // The team's helpers are asleep or spinning between frames; destruction wakes and joins them.
+  for (int i = 0; i < 3; ++i) {
+    OccupancyMapConfig cfg;
+    cfg.carve_tiles = 4;
+    cfg.threads = kMaxMapThreads;
+    EXPECT_NE(integrate_walk_with_updates(cfg, 1), 0u);
+  }
 }
 
 /// The straightforward Amanatides-Woo walk, voxel by voxel through the public state() query:

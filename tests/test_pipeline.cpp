@@ -540,3 +540,72 @@ TEST(PipelineWorstCase, ClutterFillsTheDetectorAndTheTracker) {
 
 }  // namespace
 }  // namespace dynamap
+
+namespace dynamap {
+namespace {
+
+// ---- map threads (issue 17) -------------------------------------------------------------------
+
+// Every output of a 120-frame walker run, and the map, bit for bit for 1..4 map threads with
+// tiled carving.
+TEST(Pipeline, MapThreadsGiveBitIdenticalOutputsOver120Frames) {
+  PipelineConfig cfg = small_camera_config();
+  cfg.map.carve_tiles = 4;
+  std::vector<float> one;
+  const std::uint64_t one_map = run_walker_trace(cfg, one, 120);
+  ASSERT_FALSE(one.empty());
+  for (int threads = 2; threads <= kMaxMapThreads; ++threads) {
+    SCOPED_TRACE(threads);
+    cfg.map.threads = threads;
+    std::vector<float> trace;
+    EXPECT_EQ(run_walker_trace(cfg, trace, 120), one_map);
+    ASSERT_EQ(trace.size(), one.size());
+    EXPECT_EQ(std::memcmp(trace.data(), one.data(), one.size() * sizeof(float)), 0);
+  }
+}
+
+TEST(Pipeline, ZeroHeapAllocationsWithTwoMapThreads) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  PipelineConfig cfg = small_camera_config();
+  cfg.map.carve_tiles = 4;
+  cfg.map.threads = 2;
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  WalkerScenario s;
+  std::vector<Frame> frames;
+  std::vector<std::vector<std::uint16_t>> images(60);
+  for (int i = 0; i < 60; ++i) {  // the renderer allocates: render first
+    Frame f = s.frame(i, cfg.camera);
+    images[static_cast<std::size_t>(i)] = s.pixels;
+    f.depth.data = images[static_cast<std::size_t>(i)].data();
+    frames.push_back(f);
+  }
+  std::size_t allocations = 0;
+  {
+    test::AllocationGuard guard;
+    for (const Frame& f : frames) {
+      if (!ok(p->process(f, *out))) break;
+    }
+    allocations = guard.allocations();
+  }
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(p->counters().frames_processed, 60u);
+}
+
+TEST(PipelineConfig, MapThreadsAndTilesAreValidatedByName) {
+  PipelineConfig c;
+  c.map.threads = 2;  // without tiles
+  ConfigError e = validate(c);
+  EXPECT_EQ(e.status, Status::kInvalidArgument);
+  EXPECT_STREQ(e.field, "map.threads");
+  c.map.carve_tiles = 4;
+  EXPECT_TRUE(validate(c).ok());
+  c.map.threads = kMaxMapThreads + 1;
+  EXPECT_STREQ(validate(c).field, "map.threads");
+  c.map.threads = 1;
+  c.map.carve_tiles = kMaxCarveTiles + 1;
+  EXPECT_STREQ(validate(c).field, "map.carve_tiles");
+}
+
+}  // namespace
+}  // namespace dynamap

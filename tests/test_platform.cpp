@@ -1,3 +1,5 @@
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <initializer_list>
@@ -7,6 +9,7 @@
 
 #include "dynamap/platform/clock.hpp"
 #include "dynamap/platform/thread.hpp"
+#include "dynamap/platform/worker_team.hpp"
 
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 #define DYNAMAP_TEST_SANITIZED 1
@@ -96,6 +99,61 @@ TEST(PlatformThread, LockAndUnlockMemory) {
   EXPECT_EQ(platform::unlock_memory(), Status::kOk);
 #endif
 }
+
+}  // namespace
+}  // namespace dynamap
+
+// ---- WorkerTeam -------------------------------------------------------------------------------
+
+namespace dynamap {
+namespace {
+
+struct TeamProbe {
+  std::array<std::atomic<int>, platform::WorkerTeam::kMaxMembers> calls{};
+  std::atomic<int> slow_member{-1};
+};
+
+void probe_task(void* context, unsigned member) {
+  auto* p = static_cast<TeamProbe*>(context);
+  if (static_cast<int>(member) == p->slow_member.load()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  p->calls[member].fetch_add(1);
+}
+
+TEST(PlatformWorkerTeam, EveryMemberRunsEveryTaskOnceAndRunWaitsForAll) {
+  for (unsigned members = 1; members <= platform::WorkerTeam::kMaxMembers; ++members) {
+    SCOPED_TRACE(members);
+    platform::WorkerTeam team;
+    ASSERT_EQ(team.start(members, platform::ThreadOptions{}), Status::kOk);
+    EXPECT_EQ(team.size(), members);
+    TeamProbe probe;
+    probe.slow_member = static_cast<int>(members) - 1;  // the last member is slow
+    for (int run = 1; run <= 50; ++run) {
+      team.run(&probe_task, &probe);
+      // run() returned: every member has finished this run, the slow one included.
+      for (unsigned m = 0; m < members; ++m) EXPECT_EQ(probe.calls[m].load(), run);
+      probe.slow_member = run % 5 == 0 ? static_cast<int>(members) - 1 : -1;
+    }
+    team.stop();
+    team.stop();  // idempotent
+    EXPECT_EQ(team.size(), 1u);
+  }
+}
+
+TEST(PlatformWorkerTeam, StartValidatesAndRestarts) {
+  platform::WorkerTeam team;
+  EXPECT_EQ(team.start(0, platform::ThreadOptions{}), Status::kInvalidArgument);
+  EXPECT_EQ(team.start(platform::WorkerTeam::kMaxMembers + 1, platform::ThreadOptions{}),
+            Status::kInvalidArgument);
+  ASSERT_EQ(team.start(3, platform::ThreadOptions{}), Status::kOk);
+  EXPECT_EQ(team.start(2, platform::ThreadOptions{}), Status::kInvalidArgument);  // running
+  team.stop();
+  ASSERT_EQ(team.start(2, platform::ThreadOptions{}), Status::kOk);
+  TeamProbe probe;
+  team.run(&probe_task, &probe);
+  EXPECT_EQ(probe.calls[0].load() + probe.calls[1].load(), 2);
+}  // the destructor joins
 
 }  // namespace
 }  // namespace dynamap

@@ -258,3 +258,50 @@ TEST(Runner, ThreeThreadStressLosesNothingButCountedRejections) {
 
 }  // namespace
 }  // namespace dynamap
+
+namespace dynamap {
+namespace {
+
+// ---- map threads (issue 17) -------------------------------------------------------------------
+
+std::atomic<int> g_slow_calls{0};
+void slow_member(unsigned member) {
+  if (member != 1) return;
+  g_slow_calls.fetch_add(1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+}
+
+// stop() while a frame is in flight on the map's team (one member is 20 ms slow): the frame
+// completes, stop() returns, the map's helpers are joined with the pipeline, nothing is lost.
+TEST(Runner, StopWhileAFrameIsInFlightOnTheMapTeamIsClean) {
+  auto p = std::make_unique<Pipeline>();
+  PipelineConfig cfg = tiny_config();
+  cfg.map.carve_tiles = 4;
+  cfg.map.threads = 2;
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  OccupancyMap::set_worker_hook(&slow_member);
+  g_slow_calls = 0;
+  auto r = std::make_unique<Runner>(*p);
+  ASSERT_EQ(r->start(), Status::kOk);
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height),
+                                2000);
+  for (Stamp i = 1; i <= 3; ++i) {
+    Frame f;
+    f.stamp = i * 1'000'000ULL;
+    f.depth = DepthView{px.data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2};
+    EXPECT_EQ(r->submit(f), Status::kOk);
+  }
+  while (g_slow_calls.load() == 0) std::this_thread::yield();  // a frame is on the team
+  r->stop();
+  EXPECT_FALSE(r->running());
+  const RunnerCounters c = r->counters();
+  EXPECT_GE(c.processed, 1u);
+  EXPECT_EQ(c.processed + c.failed + c.dropped_at_stop, c.submitted) << "a frame was lost";
+  EXPECT_EQ(c.failed, 0u);
+  OccupancyMap::set_worker_hook(nullptr);
+  r.reset();
+  p.reset();  // joins the map's helpers
+}
+
+}  // namespace
+}  // namespace dynamap

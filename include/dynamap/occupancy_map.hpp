@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -14,6 +15,7 @@
 
 #include "dynamap/constants.hpp"
 #include "dynamap/fixed_hash_map.hpp"
+#include "dynamap/platform/worker_team.hpp"
 #include "dynamap/status.hpp"
 #include "dynamap/types.hpp"
 
@@ -29,6 +31,14 @@ inline constexpr std::size_t kMaxRaysPerFrame =
 /// the exact walk of every pixel of a 640x480 frame (offline measurements use up to 20 M); the
 /// pipeline bounds it far lower (kMaxPipelineVoxelVisitsPerFrame).
 inline constexpr std::size_t kMaxVoxelVisitsPerFrame = 32'000'000;
+
+/// Upper bound of OccupancyMapConfig::threads (members of the map's worker team).
+inline constexpr int kMaxMapThreads = static_cast<int>(platform::WorkerTeam::kMaxMembers);
+/// Upper bound of OccupancyMapConfig::carve_tiles.
+inline constexpr int kMaxCarveTiles = 8;
+/// Tiled carving needs the local block grid to have at most this many cells (the default
+/// region has 3179); each tile's scratch holds one 512-bit mark set per cell it touches.
+inline constexpr std::size_t kMaxTileCells = 4096;
 
 /// What the map knows about a voxel: never observed, free, or occupied.
 enum class Occupancy : std::uint8_t { kUnknown = 0, kFree, kOccupied };
@@ -58,6 +68,15 @@ struct OccupancyMapConfig {
   /// stopped part of a ray would cross misses this frame's update. Hits are never affected.
   /// Default 12; why, and what it costs against the exact walk: docs/occupancy_map.md.
   int free_ray_early_stop = 12;
+  /// Free-space carving split into this many column strips of the image (tiles), each walked
+  /// on its own against its own marks, the marks then merged as a set union and applied once
+  /// per voxel. 0 (default): one walk over all rays, today's result. T in 1..kMaxCarveTiles:
+  /// the result depends on T but not on `threads` (docs/occupancy_map.md, "Tiled carving").
+  /// Needs the local block grid (at most kMaxTileCells cells).
+  int carve_tiles = 0;
+  /// Threads integrating a frame, the caller included (1..kMaxMapThreads), created once by
+  /// init(). More than 1 needs carve_tiles > 0; the map is bit-identical for every value.
+  int threads = 1;
 };
 
 /// Counters of the last integrate() call (work done, work dropped by caps, pool churn).
@@ -76,6 +95,10 @@ struct IntegrationStats {
   std::size_t updates_dropped = 0;     ///< voxel updates lost because no block could be allocated
   std::size_t rays_stopped_early = 0;  ///< free_ray_early_stop: rays stopped before the camera
 };
+
+namespace detail {
+struct RayWalk;
+}
 
 /// The static occupancy map. Single-threaded: integrate() and clear_box() mutate; the const
 /// queries may run concurrently with each other but not with a mutation.
@@ -100,8 +123,17 @@ class OccupancyMap {
 
   OccupancyMap() noexcept;
 
-  /// Validates `config`, empties the map. kInvalidArgument (map unchanged) when inconsistent.
+  OccupancyMap(const OccupancyMap&) = delete;
+  OccupancyMap& operator=(const OccupancyMap&) = delete;
+
+  /// Validates `config`, empties the map and (re)starts the worker team with config.threads
+  /// members. kInvalidArgument (map unchanged) when inconsistent; a thread creation error as
+  /// platform::WorkerTeam::start() reports it (map not initialised).
   [[nodiscard]] Status init(const OccupancyMapConfig& config) noexcept;
+  /// Tests only: called by each team member (0 = the integrating thread) of every map when it
+  /// starts its share of a frame's carving, e.g. to delay one worker. nullptr (default): none.
+  using WorkerHook = void (*)(unsigned member);
+  static void set_worker_hook(WorkerHook hook) noexcept;
 
   /// Integrates one depth frame taken at T_map_camera. On any bad input returns its Status and
   /// changes nothing: kOutOfRange when the camera lies beyond max_abs_translation() (see
@@ -278,9 +310,78 @@ class OccupancyMap {
   Eigen::Array4f row_direction(int v) const noexcept {
     return ((static_cast<float>(v) - cy_) * inv_fy_) * down_dir_ + forward_dir_;
   }
+  void set_frame_geometry(const CameraIntrinsics& cam, const Pose& T_map_camera) noexcept;
+  // Pass 1 (end points), src/occupancy_map.cpp "Integration".
+  struct EndPointConstants;
+  EndPointConstants end_point_constants() const noexcept;
+  /// End voxels of four sampled pixels: classes as 0/1 lanes, block indices relative to
+  /// key_base_ >> kBlockBits, voxel index inside the block.
+  struct EndLanes {
+    Eigen::Array4i too_near, hit, blk_x, blk_y, blk_z, in_block;
+  };
+  /// A row's ray direction, one broadcast array per axis.
+  struct RowDirection {
+    Eigen::Array4f x, y, z;
+  };
+  RowDirection row_direction_lanes(int v) const noexcept {
+    const Eigen::Array4f d = row_direction(v);
+    return {Eigen::Array4f::Constant(d[0]), Eigen::Array4f::Constant(d[1]),
+            Eigen::Array4f::Constant(d[2])};
+  }
+  EndLanes end_lanes(const EndPointConstants& c, const std::uint16_t* row,
+                     const RowDirection& row_dir, int k0, int lanes) const noexcept;
+  struct EndMarkStamps {
+    std::uint16_t queued, hit;
+    bool merge;
+    std::size_t max_rays;
+    std::int32_t q_hit, q_max, q_occupied;
+  };
+  struct EndMarkCounters {
+    std::size_t rays = 0, pixels = 0, merged = 0, dropped = 0, dropped_updates = 0, updates = 0,
+                hits = 0;
+  };
+  EndMarkStamps end_mark_stamps(std::size_t max_rays) const noexcept;
+  bool mark_end_voxel(Block& block, std::size_t li, bool hit, const EndMarkStamps& s,
+                      EndMarkCounters& k) noexcept;
+  void add_end_mark_counters(const EndMarkCounters& k) noexcept;
   void mark_end_points(const DepthView& depth) noexcept;
+  void mark_end_points_in_team(const DepthView& depth) noexcept;
+  void compute_end_codes(unsigned member) noexcept;
+  void acquire_end_blocks(std::size_t samples) noexcept;
+  void mark_end_codes(unsigned member, std::size_t samples) noexcept;
+  // Pass 2 (free space), src/occupancy_map.cpp "Carving".
+  /// Work counters of one ray list's walk, summed into stats_ by the caller.
+  struct CarveCounters {
+    std::size_t visits_left = 0, visits = 0, rays = 0, rays_dropped = 0, rays_stopped = 0;
+    std::size_t updates = 0, dropped_updates = 0;
+  };
+  /// One tile's marks: a 512-bit set (one bit per voxel) per local grid cell it entered.
+  struct TileScratch {
+    std::array<std::uint16_t, kMaxTileCells> slot_of_cell;  ///< mark set + 1; 0: none yet
+    std::array<std::uint16_t, kMaxTileCells> cells;         ///< cells entered, in order
+    std::array<std::array<std::uint64_t, kBlockVoxels / 64>, kMaxTileCells> marks;
+    std::array<std::uint64_t, kBlockVoxels / 64> discard;  ///< marks outside the grid (none)
+    std::size_t cell_count;
+    std::size_t ray_begin, ray_end;  ///< its rays in ordered_rays_
+    CarveCounters counters;
+  };
+  template <bool kEarlyStop>
+  struct SequentialCursor;
+  template <bool kEarlyStop>
+  struct TileCursor;
+  std::size_t order_rays(int tiles, bool by_level) noexcept;
+  bool start_ray(std::uint32_t pixel, const DepthView& depth, const IndexVec& camera, bool from_end,
+                 detail::RayWalk& w) const noexcept;
+  template <bool kEarlyStop, class Cursor>
+  void carve_rays(std::size_t begin, std::size_t end, const DepthView& depth,
+                  const IndexVec& camera, Cursor& cursor, CarveCounters& k) const noexcept;
   template <bool kEarlyStop>
   void carve_free_space(const DepthView& depth) noexcept;
+  template <bool kEarlyStop>
+  void carve_tile(std::size_t tile, const DepthView& depth) noexcept;
+  void carve_tiles_in_team(const DepthView& depth) noexcept;
+  std::size_t collect_tile_marks() noexcept;
+  void apply_tile_marks(unsigned member) noexcept;
 
   // --- configuration (derived at init) ---
   OccupancyMapConfig config_{};
@@ -305,6 +406,28 @@ class OccupancyMap {
   // --- per-frame scratch (inline, reused) ---
   std::array<std::uint32_t, kMaxRaysPerFrame> rays_{};  ///< pixel index (v * width + u)
   std::size_t ray_count_ = 0;
+  /// rays_ in carving order: by tile, then coarse-to-fine level, then pixel order.
+  std::array<std::uint32_t, kMaxRaysPerFrame> ordered_rays_{};
+
+  // --- tiled carving (carve_tiles > 0) ---
+  platform::WorkerTeam team_{};
+  const DepthView* team_depth_ = nullptr;  ///< the frame being carved, for the team's task
+  std::atomic<std::uint32_t> next_tile_{0};
+  std::array<TileScratch, kMaxCarveTiles> tiles_{};
+  /// Union of the tiles' marks per cell, and the cell's block (nullptr: pool full).
+  std::array<std::array<std::uint64_t, kBlockVoxels / 64>, kMaxTileCells> merged_marks_{};
+  std::array<Block*, kMaxTileCells> merged_block_{};
+  std::array<std::uint64_t, kMaxTileCells / 64> merged_seen_{};  ///< cells collected
+  std::size_t merged_count_ = 0;
+  /// Per team member: misses applied and updates dropped by apply_tile_marks().
+  std::array<std::array<std::size_t, 2>, platform::WorkerTeam::kMaxMembers> member_updates_{};
+  /// Pass 1 on the team: per sampled pixel (row-major), its end voxel as
+  /// cell << 10 | hit << 9 | index in block (or a skip code), and whether its ray is listed.
+  std::array<std::uint32_t, kMaxRaysPerFrame> end_codes_{};
+  std::array<std::uint8_t, kMaxRaysPerFrame> end_kept_{};
+  std::size_t team_samples_ = 0;
+  std::array<EndMarkCounters, platform::WorkerTeam::kMaxMembers> member_marks_{};
+  Block empty_block_{};  ///< stamps 0: what a walk reads in a cell without a block
   // Ray geometry as 4-lane arrays (lane 3 = 0) so the per-pixel maths is one SIMD operation.
   std::array<Eigen::Array4f, kMaxImageWidth> column_dir_{};  ///< R * ((u-cx)/fx, 0, 0)
   /// column_dir_ of the sampled columns (margin + k * stride), one array per axis, so pass 1
