@@ -121,6 +121,25 @@ TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
   c = PipelineConfig{};
   c.map.free_ray_early_stop = -1;
   EXPECT_STREQ(validate(c).field, "map.free_ray_early_stop");
+
+  // The far-field layer: each field named, and Pipeline::init refuses what validate() refuses.
+  c = PipelineConfig{};
+  c.far_field.max_range = 20.f;  // 2 x 20 m / 0.2 m does not fit the 128-cell grid
+  EXPECT_STREQ(validate(c).field, "far_field.max_range");
+  auto p = std::make_unique<Pipeline>();
+  EXPECT_FALSE(ok(p->init(c)));
+  c = PipelineConfig{};
+  c.far_field.wall_height = 3.f;
+  EXPECT_STREQ(validate(c).field, "far_field.wall_height");
+  c = PipelineConfig{};
+  c.far_field.min_pixels = 0;
+  EXPECT_STREQ(validate(c).field, "far_field.min_pixels");
+  c = PipelineConfig{};
+  c.far_field.cell_size = std::nanf("");
+  EXPECT_STREQ(validate(c).field, "far_field.cell_size");
+  c = PipelineConfig{};
+  c.far_field.memory_frames = 0;
+  EXPECT_STREQ(validate(c).field, "far_field.memory_frames");
 }
 
 // Every work cap has an upper bound and the derived worst case of the frame is bounded: the
