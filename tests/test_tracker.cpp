@@ -360,7 +360,7 @@ TEST(TrackerRobustness, EverFreeShareOutOfRangeIsRefused) {
     TrackerConfig c;
     c.ever_free_share = bad;
     Tracker t;
-    EXPECT_EQ(t.init(c), Status::kInvalidArgument) << bad;
+    EXPECT_EQ(t.init(c, 640, 480), Status::kInvalidArgument) << bad;
   }
 }
 
