@@ -161,7 +161,7 @@ TEST(EverFreeGrid, BadInputChangesNothingAndBadConfigIsRefused) {
 TEST(EverFreeGrid, TrackerLabelsAWalkerInEverFreeSpaceWithinFiveFrames) {
   auto grid = make_grid();
   auto tracker = std::make_unique<Tracker>();
-  ASSERT_EQ(tracker->init(TrackerConfig{}), Status::kOk);
+  ASSERT_EQ(tracker->init(TrackerConfig{}, 640, 480), Status::kOk);
   Scene scene;
   const Pose pose = camera_pose();
   const Block cabinet{3.0f, 1.0f, 1.5f, 0.05f, 1.2f};
@@ -220,7 +220,7 @@ TEST(EverFreeGrid, WithoutEvidenceTheTrackerWaitsForItsVotes) {
   TrackerConfig tc;
   tc.ever_free_frames = 0;
   auto tracker = std::make_unique<Tracker>();
-  ASSERT_EQ(tracker->init(tc), Status::kOk);
+  ASSERT_EQ(tracker->init(tc, 640, 480), Status::kOk);
   const Pose pose = camera_pose();
   int dynamic_at = -1;
   for (int i = 0; i < 30 && dynamic_at < 0; ++i) {
