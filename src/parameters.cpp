@@ -101,7 +101,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(map.merge_rays_per_voxel), X, "", 0, 1, kClosed, kClosed, "cast one ray per distinct end voxel instead of one per pixel"},
     {DYNAMAP_FIELD(map.free_ray_early_stop), X, "voxels", 0, kInf, kClosed, kOpen, "stop a free ray after this many voxels an earlier ray marked (0: exact walk)"},
     {DYNAMAP_FIELD(map.carve_tiles), X, "", 0, kMaxCarveTiles, kClosed, kClosed, "free-space carving in this many image column strips (0: one walk; the map depends on it, not on threads)"},
-    {DYNAMAP_FIELD(map.threads), U, "", 1, kMaxMapThreads, kClosed, kClosed, "threads integrating a frame, the caller included (> 1 needs map.carve_tiles > 0)"},
+    {DYNAMAP_FIELD(map.threads), C, "", 1, kMaxMapThreads, kClosed, kClosed, "threads integrating a frame, the caller included (> 1 needs map.carve_tiles > 0)"},
     // Detector.
     {DYNAMAP_FIELD(detector.bins), X, "", 1, kMaxUMapBins, kClosed, kClosed, "U-map depth bins over [d_min, d_max]"},
     {DYNAMAP_FIELD(detector.d_min), X, "m", 0, kInf, kClosed, kOpen, "nearer depths are not counted in the U-map"},
