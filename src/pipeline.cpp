@@ -111,36 +111,58 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   // Every check happens before any stage runs, so a rejected frame changes nothing.
   const Status bad = check_frame(frame);
   if (!ok(bad)) return reject(frame, bad, out);
-  const std::uint64_t t_start = clock_();
-  std::uint64_t t_prev = t_start;
-  std::array<std::uint64_t, kStageCount> stage_ns{};
-  auto lap = [&](Stage s) {
-    const std::uint64_t now = clock_();
-    const std::uint64_t dt = now > t_prev ? now - t_prev : 0;
-    stage_ns[idx(s)] = dt;
-    StageStats& st = stage_stats_[idx(s)];
-    const std::uint64_t overruns_before = st.overruns();
-    st.record(dt);
-    counters_.stage_overruns += st.overruns() - overruns_before;
-    t_prev = now;
-  };
+  FrameClock clock;
+  clock.start = clock.prev = clock_();
   FrameWork work;
-
-  // 1. Occupancy update. check_frame() applied the map's own checks, so it does not refuse the
-  // frame; if it ever did, it changed nothing, and neither has any other stage yet.
-  const Status map_status =
-      map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp);
+  const Status map_status = integrate(frame, work);
   if (!ok(map_status)) return reject(frame, map_status, out);
-  {
-    const IntegrationStats& ms = map_.last_stats();
-    work.rays = ms.rays;
-    work.voxel_visits = ms.voxel_visits;
-    counters_.rays_dropped += ms.rays_dropped;
-    counters_.blocks_evicted += ms.blocks_evicted;
-  }
-  lap(Stage::kOccupancy);
+  lap(Stage::kOccupancy, clock);
+  detect(frame, work);
+  lap(Stage::kDetection, clock);
+  // Map refinement against the occupancy map and the clean history.
+  const VoxelLookup cleaned{&history_, &CleanHistory::contains_thunk};
+  if (ok(refiner_.refine(map_, cleaned, detections_))) work.refined = refiner_.last_stats().refined;
+  lap(Stage::kRefinement, clock);
+  track(frame, work);
+  lap(Stage::kTracking, clock);
+  clean(frame, work);
+  lap(Stage::kCleaning, clock);
+  // Prediction for dynamic tracks, after the far-field layer has taken this frame's far pixels.
+  const std::size_t n_dyn = collect_dynamic();
+  const FarFieldLayer* far = update_far_field(frame, n_dyn);
+  lap(Stage::kFarField, clock);
+  out.num_predictions = predict(frame, n_dyn, far, out);
+  work.predictions = out.num_predictions;
+  lap(Stage::kPrediction, clock);
+  finish(frame, clock, work, out);
+  return Status::kOk;
+}
 
-  // 2. U-map detection.
+void Pipeline::lap(Stage stage, FrameClock& clock) noexcept {
+  const std::uint64_t now = clock_();
+  const std::uint64_t dt = now > clock.prev ? now - clock.prev : 0;
+  clock.stage_ns[idx(stage)] = dt;
+  StageStats& st = stage_stats_[idx(stage)];
+  const std::uint64_t overruns_before = st.overruns();
+  st.record(dt);
+  counters_.stage_overruns += st.overruns() - overruns_before;
+  clock.prev = now;
+}
+
+Status Pipeline::integrate(const Frame& frame, FrameWork& work) noexcept {
+  // check_frame() applied the map's own checks, so it does not refuse the frame; if it ever
+  // did, it changed nothing, and neither has any other stage yet.
+  const Status s = map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp);
+  if (!ok(s)) return s;
+  const IntegrationStats& ms = map_.last_stats();
+  work.rays = ms.rays;
+  work.voxel_visits = ms.voxel_visits;
+  counters_.rays_dropped += ms.rays_dropped;
+  counters_.blocks_evicted += ms.blocks_evicted;
+  return Status::kOk;
+}
+
+void Pipeline::detect(const Frame& frame, FrameWork& work) noexcept {
   if (!ok(detector_.detect(frame.depth, config_.camera, frame.T_map_camera, detections_))) {
     detections_.clear();
   }
@@ -151,58 +173,57 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
     ever_free_.annotate(detections_.data(), detections_.size());
   }
   work.detections = detections_.size();
-  lap(Stage::kDetection);
+}
 
-  // 3. Map refinement against the occupancy map and the clean history.
-  const VoxelLookup cleaned{&history_, &CleanHistory::contains_thunk};
-  if (ok(refiner_.refine(map_, cleaned, detections_))) work.refined = refiner_.last_stats().refined;
-  lap(Stage::kRefinement);
-
-  // 4. Tracking and static/dynamic identification.
+void Pipeline::track(const Frame& frame, FrameWork& work) noexcept {
   const std::uint64_t refused_before = tracker_.refused_tracks();
   (void)tracker_.update(detections_.data(), detections_.size(), frame.T_map_camera, frame.stamp);
   counters_.tracks_refused += tracker_.refused_tracks() - refused_before;
   work.tracks = tracker_.size();
-  lap(Stage::kTracking);
+}
 
-  // 5. Dynamic-region cleaning.
+void Pipeline::clean(const Frame& frame, FrameWork& work) noexcept {
   (void)cleaner_.clean(tracker_, map_, history_, frame.stamp);
   work.voxels_cleaned = cleaner_.last_stats().voxels_freed;
   work.dynamic_tracks = cleaner_.last_stats().dynamic_tracks;
-  lap(Stage::kCleaning);
+}
 
-  // 6. Prediction for dynamic tracks, after the far-field layer has taken this frame's far
-  // pixels (walkers' pixels are not walls).
+std::size_t Pipeline::collect_dynamic() noexcept {
   std::size_t n_dyn = 0;
   for (std::size_t i = 0; i < tracker_.size(); ++i) {
     const TrackedObstacle& o = tracker_.obstacle(i);
-    if (!o.dynamic) continue;
-    predictor_input_[n_dyn++] = predictor_input(o);
+    if (o.dynamic) predictor_input_[n_dyn++] = predictor_input(o);
   }
-  const FarFieldLayer* far = nullptr;
-  if (config_.far_field.enabled) {
-    // The dynamic tracks' pixels are not walls. Walkers not (yet) labelled dynamic are kept
-    // out by the layer's wall_height; static tracks are often pieces of a wall, and cutting
-    // their pixels out would leave the wall's near noise tail as a ghost wall in front of it.
-    const std::size_t n_ex = std::min(n_dyn, kFarFieldMaxExclusions);
-    for (std::size_t k = 0; k < n_ex; ++k) {
-      far_exclusions_[k].centre = predictor_input_[k].position.head<2>();
-      far_exclusions_[k].radius =
-          predictor_input_[k].footprint_radius + config_.predictor.clearance.self_margin;
-    }
-    if (ok(far_field_.update(frame.depth, config_.camera, frame.T_map_camera,
-                             far_exclusions_.data(), n_ex))) {
-      far = &far_field_;
-    }
+  return n_dyn;
+}
+
+const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t n_dyn) noexcept {
+  if (!config_.far_field.enabled) return nullptr;
+  // The dynamic tracks' pixels are not walls. Walkers not (yet) labelled dynamic are kept out by
+  // the layer's wall_height; static tracks are often pieces of a wall, and cutting their pixels
+  // out would leave the wall's near noise tail as a ghost wall in front of it.
+  const std::size_t n_ex = std::min(n_dyn, kFarFieldMaxExclusions);
+  for (std::size_t k = 0; k < n_ex; ++k) {
+    far_exclusions_[k].centre = predictor_input_[k].position.head<2>();
+    far_exclusions_[k].radius =
+        predictor_input_[k].footprint_radius + config_.predictor.clearance.self_margin;
   }
-  lap(Stage::kFarField);
+  if (!ok(far_field_.update(frame.depth, config_.camera, frame.T_map_camera, far_exclusions_.data(),
+                            n_ex))) {
+    return nullptr;
+  }
+  return &far_field_;
+}
+
+std::size_t Pipeline::predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
+                              FrameOutput& out) noexcept {
   const OccupancyQuery query = OccupancyQuery::of(map_);
   // The frame's pixels are read in place: the caller keeps them alive for the whole call.
   const DepthEvidence evidence = DepthEvidence::of(frame.depth, config_.camera, frame.T_map_camera);
   const DepthEvidence* depth = config_.predictor.depth_check.enabled ? &evidence : nullptr;
   if (!ok(markov_.predict(predictor_input_.data(), n_dyn, query, depth, far,
                           out.predictions.data()))) {
-    n_dyn = 0;
+    return 0;
   }
   if (config_.run_linear_baseline && n_dyn > 0) {
     // Map only: the baseline's straight path is fixed, and its failure counts "no path free"
@@ -210,15 +231,16 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
     // collision of that path with the world.
     (void)linear_.predict(predictor_input_.data(), n_dyn, query, out.linear_predictions.data());
   }
-  out.num_predictions = n_dyn;
-  work.predictions = n_dyn;
-  lap(Stage::kPrediction);
+  return n_dyn;
+}
 
-  const std::uint64_t total = t_prev - t_start;
+void Pipeline::finish(const Frame& frame, const FrameClock& clock, const FrameWork& work,
+                      FrameOutput& out) noexcept {
+  const std::uint64_t total = clock.prev - clock.start;
   const std::uint64_t frame_overruns_before = frame_stats_.overruns();
   frame_stats_.record(total);
   counters_.budget_overruns += frame_stats_.overruns() - frame_overruns_before;
-  if (config_.budgets.adaptive_stride) adapt_stride(stage_ns[idx(Stage::kOccupancy)]);
+  if (config_.budgets.adaptive_stride) adapt_stride(clock.stage_ns[idx(Stage::kOccupancy)]);
 
   has_stamp_ = true;
   last_stamp_ = frame.stamp;
@@ -226,11 +248,10 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
 
   out.stamp = frame.stamp;
   out.status = Status::kOk;
-  out.stage_ns = stage_ns;
+  out.stage_ns = clock.stage_ns;
   out.total_ns = total;
   out.work = work;
   fill_output(out);
-  return Status::kOk;
 }
 
 void Pipeline::fill_output(FrameOutput& out) noexcept {

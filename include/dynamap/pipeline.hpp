@@ -134,6 +134,24 @@ class Pipeline {
   void adapt_stride(std::uint64_t occupancy_ns) noexcept;
   void fill_output(FrameOutput& out) noexcept;
 
+  // process() in named steps, one per stage (src/pipeline.cpp).
+  struct FrameClock {  ///< stage laps of one process() call
+    std::uint64_t start = 0;
+    std::uint64_t prev = 0;
+    std::array<std::uint64_t, kStageCount> stage_ns{};
+  };
+  void lap(Stage stage, FrameClock& clock) noexcept;
+  Status integrate(const Frame& frame, FrameWork& work) noexcept;
+  void detect(const Frame& frame, FrameWork& work) noexcept;
+  void track(const Frame& frame, FrameWork& work) noexcept;
+  void clean(const Frame& frame, FrameWork& work) noexcept;
+  std::size_t collect_dynamic() noexcept;
+  const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn) noexcept;
+  std::size_t predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
+                      FrameOutput& out) noexcept;
+  void finish(const Frame& frame, const FrameClock& clock, const FrameWork& work,
+              FrameOutput& out) noexcept;
+
   PipelineConfig config_{};
   bool initialized_ = false;
   bool has_stamp_ = false;
