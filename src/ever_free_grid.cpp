@@ -55,7 +55,8 @@ bool EverFreeGrid::key_of(const Eigen::Vector3f& p, int* kx, int* ky, int* kz) c
 
 EverFreeGrid::Cell* EverFreeGrid::cell(int kx, int ky, int kz, bool claim) noexcept {
   const std::size_t column =
-      static_cast<std::size_t>((ky & kColumnMask) * kEverFreeColumns + (kx & kColumnMask));
+      static_cast<std::size_t>(ky & kColumnMask) * static_cast<std::size_t>(kEverFreeColumns) +
+      static_cast<std::size_t>(kx & kColumnMask);
   ColumnTag& tag = tags_[column];
   if (!tag.valid || tag.x != kx || tag.y != ky) {
     if (!claim) return nullptr;
@@ -68,7 +69,8 @@ EverFreeGrid::Cell* EverFreeGrid::cell(int kx, int ky, int kz, bool claim) noexc
 
 const EverFreeGrid::Cell* EverFreeGrid::cell(int kx, int ky, int kz) const noexcept {
   const std::size_t column =
-      static_cast<std::size_t>((ky & kColumnMask) * kEverFreeColumns + (kx & kColumnMask));
+      static_cast<std::size_t>(ky & kColumnMask) * static_cast<std::size_t>(kEverFreeColumns) +
+      static_cast<std::size_t>(kx & kColumnMask);
   const ColumnTag& tag = tags_[column];
   if (!tag.valid || tag.x != kx || tag.y != ky) return nullptr;
   return &cells_[column * kEverFreeMaxLayers + static_cast<std::size_t>(kz)];

@@ -77,56 +77,78 @@ void OccupancyMap::set_worker_hook(WorkerHook hook) noexcept {
   g_worker_hook.store(hook, std::memory_order_relaxed);
 }
 
-Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
+namespace {
+
+// Every rule init() applies to a configuration on its own (PipelineConfig's table names them).
+bool config_valid(const OccupancyMapConfig& c) noexcept {
   const auto prob_ok = [](float p) { return std::isfinite(p) && p > 0.f && p < 1.f; };
   if (!prob_ok(c.prob_hit) || !prob_ok(c.prob_miss) || !prob_ok(c.prob_min) ||
       !prob_ok(c.prob_max) || !prob_ok(c.prob_occupied)) {
-    return Status::kInvalidArgument;
+    return false;
   }
   if (!(c.prob_min < c.prob_miss && c.prob_miss < 0.5f && 0.5f < c.prob_hit &&
         c.prob_hit < c.prob_max && c.prob_min <= c.prob_occupied && c.prob_occupied < c.prob_max)) {
-    return Status::kInvalidArgument;
+    return false;
   }
   // The clamp range must fit int16 next to the kUnknown sentinel.
   if (std::fabs(logit(c.prob_min)) > 30.f || std::fabs(logit(c.prob_max)) > 30.f) {
-    return Status::kInvalidArgument;
+    return false;
   }
   if (!std::isfinite(c.resolution) || c.resolution < 0.01f || c.resolution > 10.f) {
-    return Status::kInvalidArgument;
+    return false;
   }
   if (!std::isfinite(c.min_depth) || c.min_depth < 0.f || !finite_positive(c.max_depth) ||
       c.max_depth <= c.min_depth) {
-    return Status::kInvalidArgument;
+    return false;
   }
   if (c.pixel_margin < 0 || c.pixel_stride < 1 || c.pixel_stride > kMaxImageWidth) {
-    return Status::kInvalidArgument;
+    return false;
   }
   for (int a = 0; a < 3; ++a) {
     // Half extents up to 1000 voxels keep the whole local region far inside the key range.
     if (!finite_positive(c.local_half_extent[a]) ||
         c.local_half_extent[a] > 1000.f * c.resolution) {
-      return Status::kInvalidArgument;
+      return false;
     }
   }
   if (c.max_blocks < 1 || c.max_blocks > kMaxMapBlocks || c.max_rays_per_frame < 1 ||
       c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1 ||
       c.max_voxel_visits_per_frame > kMaxVoxelVisitsPerFrame) {
-    return Status::kInvalidArgument;
+    return false;
   }
-  if (c.free_ray_early_stop < 0) return Status::kInvalidArgument;
+  if (c.free_ray_early_stop < 0) return false;
   if (c.carve_tiles < 0 || c.carve_tiles > kMaxCarveTiles || c.threads < 1 ||
       c.threads > kMaxMapThreads || (c.threads > 1 && c.carve_tiles == 0)) {
-    return Status::kInvalidArgument;
+    return false;
   }
-  // Dense per-frame block cache over the local region (+1 block margin each side); disabled
-  // (hash lookups only) when the region is too large for kLocalGridCells.
-  std::array<std::int32_t, 3> grid_dim{};
-  std::size_t cells = 1;
+  return true;
+}
+
+// Blocks per axis of the dense per-frame grid over the local region, +1 block margin each side.
+std::array<std::int32_t, 3> local_grid_dims(const OccupancyMapConfig& c) noexcept {
+  std::array<std::int32_t, 3> dim{};
   for (int a = 0; a < 3; ++a) {
-    const float blocks = c.local_half_extent[a] / (static_cast<float>(kBlockEdge) * c.resolution);
-    grid_dim[static_cast<std::size_t>(a)] = 2 * static_cast<std::int32_t>(std::ceil(blocks)) + 3;
-    cells *= static_cast<std::size_t>(grid_dim[static_cast<std::size_t>(a)]);
+    const float blocks =
+        c.local_half_extent[a] / (static_cast<float>(OccupancyMap::kBlockEdge) * c.resolution);
+    dim[static_cast<std::size_t>(a)] = 2 * static_cast<std::int32_t>(std::ceil(blocks)) + 3;
   }
+  return dim;
+}
+
+}  // namespace
+
+std::size_t OccupancyMap::local_grid_cells(const OccupancyMapConfig& c) noexcept {
+  std::size_t cells = 1;
+  for (const std::int32_t d : local_grid_dims(c)) cells *= static_cast<std::size_t>(d);
+  return cells;
+}
+
+Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
+  if (!config_valid(c)) return Status::kInvalidArgument;
+  // Dense per-frame block cache over the local region; disabled (hash lookups only) when the
+  // region is too large for kLocalGridCells.
+  const std::array<std::int32_t, 3> grid_dim = local_grid_dims(c);
+  const std::size_t cells = local_grid_cells(c);
   if (c.carve_tiles > 0 && cells > kMaxTileCells) return Status::kInvalidArgument;
   if (team_.size() != static_cast<unsigned>(c.threads)) {
     team_.stop();
@@ -151,6 +173,12 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   grid_enabled_ = cells <= kLocalGridCells;
   grid_cells_ = grid_enabled_ ? cells : 0;
 
+  reset_storage();
+  initialized_ = true;
+  return Status::kOk;
+}
+
+void OccupancyMap::reset_storage() noexcept {
   table_.clear();
   for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
     free_slots_[s] = static_cast<std::uint32_t>(kMaxMapBlocks - 1 - s);  // pop yields 0, 1, ...
@@ -165,8 +193,6 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   sink_tag_ = 0;
   ray_count_ = 0;
   stats_ = IntegrationStats{};
-  initialized_ = true;
-  return Status::kOk;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -90,6 +90,10 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
             "map.local_half_extent",
             "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "
             "(bounds the length of every ray)");
+  k.require(m.carve_tiles == 0 || OccupancyMap::local_grid_cells(m) <= kMaxTileCells,
+            "map.local_half_extent",
+            "too large for tiled carving: the local block grid must have at most kMaxTileCells "
+            "(4096) cells when map.carve_tiles > 0");
   k.require(m.threads == 1 || m.carve_tiles > 0, "map.threads",
             "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
   k.require(c.detector.d_max > c.detector.d_min, "detector.d_max", "must be > detector.d_min");
@@ -131,10 +135,9 @@ void check_far_field_relations(const PipelineConfig& c, Checker& k) noexcept {
                 2.f * f.max_range / f.cell_size <= static_cast<float>(kFarFieldCellsPerSide) - 2.f,
             "far_field.max_range",
             "must be <= (kFarFieldCellsPerSide / 2 - 1) x far_field.cell_size (12.6 m at 0.2 m)");
-  k.require(f.max_height > f.min_height, "far_field.max_height",
-            "must be > far_field.min_height");
-  k.require(f.wall_height >= f.min_height && f.wall_height <= f.max_height,
-            "far_field.wall_height", "must be in [far_field.min_height, far_field.max_height]");
+  k.require(f.max_height > f.min_height, "far_field.max_height", "must be > far_field.min_height");
+  k.require(f.wall_height >= f.min_height && f.wall_height <= f.max_height, "far_field.wall_height",
+            "must be in [far_field.min_height, far_field.max_height]");
   k.require(f.max_evidence >= f.hit_evidence, "far_field.max_evidence",
             "must be >= far_field.hit_evidence");
 }

@@ -234,7 +234,7 @@ void UMapDetector::build_groups() noexcept {
     int i = bin_first_segment_[static_cast<std::size_t>(b - 1)];
     const int i_end = bin_first_segment_[static_cast<std::size_t>(b)];
     int j = i_end;
-    const int j_end = bin_first_segment_[static_cast<std::size_t>(b + 1)];
+    const int j_end = bin_first_segment_[static_cast<std::size_t>(b) + 1];
     while (i < i_end && j < j_end) {
       const Segment& p = segments_[static_cast<std::size_t>(i)];
       const Segment& c = segments_[static_cast<std::size_t>(j)];

@@ -108,8 +108,7 @@ class OccupancyMap {
 
   static constexpr int kBlockBits = 3;
   static constexpr int kBlockEdge = 1 << kBlockBits;  ///< voxels per block edge
-  static constexpr std::size_t kBlockVoxels =
-      static_cast<std::size_t>(kBlockEdge * kBlockEdge * kBlockEdge);
+  static constexpr std::size_t kBlockVoxels = std::size_t{1} << (3 * kBlockBits);
   /// Hash table slots: power of two, load <= kMaxMapBlocks / kBlockTableCapacity = 0.5.
   static constexpr std::size_t kBlockTableCapacity = 2 * kMaxMapBlocks;
   /// Voxel indices representable in a key: [-kKeyHalfRange, kKeyHalfRange).
@@ -130,6 +129,9 @@ class OccupancyMap {
   /// members. kInvalidArgument (map unchanged) when inconsistent; a thread creation error as
   /// platform::WorkerTeam::start() reports it (map not initialised).
   [[nodiscard]] Status init(const OccupancyMapConfig& config) noexcept;
+  /// Cells of the dense per-frame block grid over `config`'s local region (one block margin each
+  /// side); tiled carving (carve_tiles > 0) needs at most kMaxTileCells.
+  static std::size_t local_grid_cells(const OccupancyMapConfig& config) noexcept;
   /// Tests only: called by each team member (0 = the integrating thread) of every map when it
   /// starts its share of a frame's carving, e.g. to delay one worker. nullptr (default): none.
   using WorkerHook = void (*)(unsigned member);
@@ -216,6 +218,7 @@ class OccupancyMap {
   std::uint64_t frames_integrated() const noexcept { return frames_; }
 
  private:
+  void reset_storage() noexcept;  // empties the hash table, the block pool and the counters
   /// int16 log-odds (x1000: 0.001 resolution, +-32 range) + uint16 frame stamp = 4 bytes, half a
   /// float+stamp record: twice the voxels per cache line, and integer clamping is exact.
   struct Voxel {
