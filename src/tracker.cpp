@@ -35,14 +35,14 @@ Status validate_detection(const Detection& d) noexcept {
 
 Status TrackerConfig::validate() const noexcept {
   if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
-  const bool good =
-      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
-      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
-      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
-      noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
-      std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
-      std::isfinite(max_coast_time) && max_coast_time > 0.f && std::isfinite(ever_free_share) &&
-      ever_free_share > 0.f && ever_free_share <= 1.f &&
+  const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
+                    overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
+                    std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
+                    std::isfinite(noise_reference_depth) && noise_reference_depth >= 0.f &&
+                    std::isfinite(max_extent_change_ratio) && std::isfinite(max_round_footprint) &&
+                    max_round_footprint >= 0.f && std::isfinite(max_coast_time) &&
+                    max_coast_time > 0.f && std::isfinite(ever_free_share) &&
+                    ever_free_share > 0.f && ever_free_share <= 1.f &&
 
                     history_length + 1 <= kMaxTrackHistory &&
                     continuity.displacement_frames + 1 <= history_length &&

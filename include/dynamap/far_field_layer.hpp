@@ -30,7 +30,7 @@ inline constexpr std::size_t kFarFieldMaxBins = 128;
 inline constexpr std::size_t kFarFieldMaxExclusions = 64;
 
 struct FarFieldConfig {
-  bool enabled = true;  ///< false: no update, the predictor uses the map alone
+  bool enabled = true;         ///< false: no update, the predictor uses the map alone
   float cell_size = 0.2f;      ///< m, grid cell and range bin, [0.05, 1]
   float max_range = 9.0f;      ///< m, horizontal range of pixels used, (hit_min_range, 25]
   float hit_min_range = 4.5f;  ///< m: nearer surfaces are the map's; >= 0

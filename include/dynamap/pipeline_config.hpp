@@ -9,8 +9,8 @@
 
 #include "dynamap/detection_refiner.hpp"
 #include "dynamap/dynamic_region_cleaner.hpp"
-#include "dynamap/far_field_layer.hpp"
 #include "dynamap/ever_free_grid.hpp"
+#include "dynamap/far_field_layer.hpp"
 #include "dynamap/map_refiner.hpp"
 #include "dynamap/markov_predictor.hpp"
 #include "dynamap/occupancy_map.hpp"

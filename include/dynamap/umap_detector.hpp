@@ -10,11 +10,11 @@
 #include <cstdint>
 
 #include "dynamap/constants.hpp"
+#include "dynamap/detail/umap_histogram.hpp"
 #include "dynamap/detection.hpp"
 #include "dynamap/fixed_vector.hpp"
 #include "dynamap/status.hpp"
 #include "dynamap/types.hpp"
-#include "dynamap/detail/umap_histogram.hpp"
 
 namespace dynamap {
 
