@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "dynamap/detail/path_sweep.hpp"
 #include "dynamap/far_field_layer.hpp"
 #include "dynamap/linear_predictor.hpp"
 #include "dynamap/markov_predictor.hpp"

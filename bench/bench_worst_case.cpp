@@ -18,7 +18,7 @@
 
 #include "dynamap/pipeline.hpp"
 #include "dynamap/platform/clock.hpp"
-#include "dynamap/worst_case.hpp"
+#include "dynamap/testing/worst_case.hpp"
 #include "world_scene.hpp"
 
 namespace {

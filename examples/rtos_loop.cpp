@@ -11,7 +11,7 @@
 
 #include "dynamap/pipeline.hpp"
 #include "dynamap/platform/worker_thread.hpp"
-#include "dynamap/worst_case.hpp"
+#include "dynamap/testing/worst_case.hpp"
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 60;

@@ -5,7 +5,7 @@
 #include <cstdio>
 
 #include "dynamap/pipeline.hpp"
-#include "dynamap/worst_case.hpp"
+#include "dynamap/testing/worst_case.hpp"
 
 namespace {
 dynamap::Pipeline g_pipeline;   // ~tens of MB in .bss; see memory_bytes()

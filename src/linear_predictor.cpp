@@ -1,5 +1,7 @@
 #include "dynamap/linear_predictor.hpp"
 
+#include "dynamap/detail/path_sweep.hpp"
+
 namespace dynamap {
 
 Status LinearPredictor::init(const LinearPredictorConfig& c) noexcept {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamap/detail/path_sweep.hpp"
 #include "dynamap/far_field_layer.hpp"
 
 namespace dynamap {

@@ -9,7 +9,7 @@
 
 #include "alloc_guard.hpp"
 #include "dynamap/pipeline.hpp"
-#include "dynamap/worst_case.hpp"
+#include "dynamap/testing/worst_case.hpp"
 #include "world_scene.hpp"
 
 namespace dynamap {

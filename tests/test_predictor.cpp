@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "alloc_guard.hpp"
+#include "dynamap/detail/path_sweep.hpp"
 #include "dynamap/far_field_layer.hpp"
 #include "dynamap/fixed_vector.hpp"
 #include "dynamap/linear_predictor.hpp"

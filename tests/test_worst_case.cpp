@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "dynamap/pipeline.hpp"
-#include "dynamap/worst_case.hpp"
+#include "dynamap/testing/worst_case.hpp"
 #include "world_scene.hpp"
 
 namespace dynamap {

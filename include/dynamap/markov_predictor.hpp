@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "dynamap/constants.hpp"
+#include "dynamap/detail/path_sweep.hpp"
 #include "dynamap/fixed_hash_map.hpp"
 #include "dynamap/path_library.hpp"
 #include "dynamap/prediction.hpp"

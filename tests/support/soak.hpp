@@ -20,7 +20,7 @@
 #include <unistd.h>
 
 #include "dynamap/runner.hpp"
-#include "dynamap/worst_case.hpp"
+#include "dynamap/testing/worst_case.hpp"
 #include "world_scene.hpp"
 
 namespace dynamap::test {

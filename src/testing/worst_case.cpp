@@ -1,4 +1,4 @@
-#include "dynamap/worst_case.hpp"
+#include "dynamap/testing/worst_case.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,7 @@
 // Deliberately worst-case depth frames: inputs that drive each stage to its configured work cap,
 // for tests (work counters hit their caps and stop there) and for worst-case timing benchmarks.
-// They write into a caller-provided buffer; nothing is allocated.
+// They write into a caller-provided buffer; nothing is allocated. Not part of the flight
+// library: link dynamap::testing (installed with it) for timing-budget tests of your own.
 #pragma once
 
 #include <cstddef>
