@@ -154,12 +154,19 @@ void FarFieldLayer::add_free(const Eigen::Vector2f& from, const Eigen::Vector2f&
   }
 }
 
-// Over 80 lines (issue 18's limit): to be split into input checks, the per-frame disc bearings
-// and the per-column histogram, with predictions.csv as the byte-identical check.
-Status FarFieldLayer::update(  // NOLINT(readability-function-size)
-    const DepthView& depth, const CameraIntrinsics& camera, const Pose& T_map_camera,
-    const FarFieldExclusion* exclusions, std::size_t count) noexcept {
-  if (!initialised_) return Status::kNotInitialized;
+namespace {
+constexpr float kPi = 3.14159265f;
+
+float wrap_angle(float a) noexcept {
+  while (a > kPi) a -= 2.0f * kPi;
+  while (a < -kPi) a += 2.0f * kPi;
+  return a;
+}
+
+// update()'s argument checks (everything but initialisation), before any state changes.
+Status check_update_input(const DepthView& depth, const CameraIntrinsics& camera,
+                          const Pose& T_map_camera, const FarFieldExclusion* exclusions,
+                          std::size_t count) noexcept {
   const Status s = validate_depth(depth, camera);
   if (!ok(s)) return s;
   if (!T_map_camera.translation.allFinite() || !T_map_camera.rotation.coeffs().allFinite()) {
@@ -172,161 +179,216 @@ Status FarFieldLayer::update(  // NOLINT(readability-function-size)
       return Status::kNonFinite;
     }
   }
+  return Status::kOk;
+}
+}  // namespace
 
-  ++frame_;
-  last_hits_ = 0;
-  const FarFieldConfig& c = config_;
-  const Eigen::Matrix3f R = T_map_camera.rotation.toRotationMatrix();
-  const Eigen::Vector3f origin = T_map_camera.translation;
-  const Eigen::Vector2f o2 = origin.head<2>();
-  const float z_lo = ground_height_ + c.min_height;
-  const float z_hi = ground_height_ + c.max_height;
-  const float z_tall = ground_height_ + c.wall_height;
-  const float bin = c.cell_size;
-  const std::size_t bins =
-      std::min(kFarFieldMaxBins, static_cast<std::size_t>(std::ceil(c.max_range / bin)));
-  const float inv_fx = 1.0f / camera.fx;
-  const float inv_fy = 1.0f / camera.fy;
-  const int stride = c.pixel_stride;
-  auto sigma = [&c](float d) { return c.noise_margin + c.noise_quadratic * d * d; };
-
-  // The discs' bearings from the camera, once per frame: a column only tests the discs its
-  // bearing passes (usually none), not every disc at every pixel.
-  const float m_max = sigma(c.max_range);
+// One frame's camera geometry, height band and exclusion discs, shared by its columns.
+struct FarFieldLayer::FrameGeometry {
+  const CameraIntrinsics* camera = nullptr;
+  Eigen::Matrix3f R;
+  Eigen::Vector3f origin;
+  Eigen::Vector2f o2;
+  Eigen::Vector3f row_step;  ///< map-frame ray change per image row (unit depth)
+  float z_lo = 0.0f, z_hi = 0.0f, z_tall = 0.0f;
+  std::size_t bins = 0;
+  float inv_fx = 0.0f;
+  const FarFieldExclusion* exclusions = nullptr;
+  std::size_t count = 0;
+  // The discs' bearings from the camera: a column only tests the discs its bearing passes
+  // (usually none), not every disc at every pixel.
   std::array<float, kFarFieldMaxExclusions> disc_angle{};
   std::array<float, kFarFieldMaxExclusions> disc_half{};
+};
+
+float FarFieldLayer::sigma(float d) const noexcept {
+  return config_.noise_margin + config_.noise_quadratic * d * d;
+}
+
+FarFieldLayer::FrameGeometry FarFieldLayer::frame_geometry(const CameraIntrinsics& camera,
+                                                           const Pose& T_map_camera,
+                                                           const FarFieldExclusion* exclusions,
+                                                           std::size_t count) const noexcept {
+  const FarFieldConfig& c = config_;
+  FrameGeometry g;
+  g.camera = &camera;
+  g.R = T_map_camera.rotation.toRotationMatrix();
+  g.origin = T_map_camera.translation;
+  g.o2 = g.origin.head<2>();
+  g.z_lo = ground_height_ + c.min_height;
+  g.z_hi = ground_height_ + c.max_height;
+  g.z_tall = ground_height_ + c.wall_height;
+  g.bins =
+      std::min(kFarFieldMaxBins, static_cast<std::size_t>(std::ceil(c.max_range / c.cell_size)));
+  g.inv_fx = 1.0f / camera.fx;
+  g.row_step = g.R.col(1) * (1.0f / camera.fy);
+  g.exclusions = exclusions;
+  g.count = count;
+  const float m_max = sigma(c.max_range);
   for (std::size_t k = 0; k < count; ++k) {
-    const Eigen::Vector2f rel = exclusions[k].centre - o2;
+    const Eigen::Vector2f rel = exclusions[k].centre - g.o2;
     const float dist = rel.norm();
     const float reach = std::fabs(exclusions[k].radius) + m_max;
-    disc_angle[k] = std::atan2(rel.y(), rel.x());
-    disc_half[k] = dist <= reach ? 4.0f : std::asin(reach / dist);  // 4 > pi: every column
+    g.disc_angle[k] = std::atan2(rel.y(), rel.x());
+    g.disc_half[k] = dist <= reach ? 4.0f : std::asin(reach / dist);  // 4 > pi: every column
   }
-  auto wrap = [](float a) {
-    constexpr float kPi = 3.14159265f;
-    while (a > kPi) a -= 2.0f * kPi;
-    while (a < -kPi) a += 2.0f * kPi;
-    return a;
-  };
-  std::array<std::size_t, kFarFieldMaxExclusions> near_discs{};
-  const Eigen::Vector3f row_step = R.col(1) * inv_fy;
+  return g;
+}
 
+std::size_t FarFieldLayer::column_discs(const FrameGeometry& g, const Eigen::Vector3f& col_dir,
+                                        int height, DiscList& near) const noexcept {
+  if (g.count == 0) return 0;
+  const Eigen::Vector3f top = col_dir - g.camera->cy * g.row_step;
+  const Eigen::Vector3f bottom = col_dir + (static_cast<float>(height) - g.camera->cy) * g.row_step;
+  const float a0 = std::atan2(top.y(), top.x());
+  const float a1 = std::atan2(bottom.y(), bottom.x());
+  const float mid = a0 + 0.5f * wrap_angle(a1 - a0);
+  const float span = 0.5f * std::fabs(wrap_angle(a1 - a0));
+  std::size_t n_near = 0;
+  for (std::size_t k = 0; k < g.count; ++k) {
+    if (std::fabs(wrap_angle(g.disc_angle[k] - mid)) <= g.disc_half[k] + span + 0.01f) {
+      near[n_near++] = k;
+    }
+  }
+  return n_near;
+}
+
+Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthView& depth,
+                                          int u) noexcept {
+  const FarFieldConfig& c = config_;
+  const CameraIntrinsics& camera = *g.camera;
+  const int stride = c.pixel_stride;
+  std::fill(bin_count_.begin(), bin_count_.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
+  std::fill(bin_tall_.begin(), bin_tall_.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
+  for (std::size_t b = 0; b < g.bins; ++b) bin_sum_[b].setZero();
+  const float xn = (static_cast<float>(u) - camera.cx) * g.inv_fx;
+  // Map-frame ray direction of pixel (u, v) with unit depth: col_dir + (v - cy) * row_step.
+  const Eigen::Vector3f col_dir = g.R.col(0) * xn + g.R.col(2);
+  DiscList near_discs{};
+  const std::size_t n_near = column_discs(g, col_dir, depth.height, near_discs);
+  Eigen::Vector2f beyond(std::numeric_limits<float>::quiet_NaN(), 0.0f);
+  for (int v = stride / 2; v < depth.height; v += stride) {
+    const std::uint16_t raw = depth.at(u, v);
+    if (raw == 0) continue;
+    const float d = static_cast<float>(raw) * camera.depth_scale;
+    const Eigen::Vector3f p =
+        g.origin + d * (col_dir + (static_cast<float>(v) - camera.cy) * g.row_step);
+    // Floor and ceiling: the band's edges move in by the depth noise's vertical share, so
+    // neither leaks into it.
+    const float m = sigma(d);
+    const float mz = m * std::fabs(p.z() - g.origin.z()) / d;
+    if (p.z() < g.z_lo + mz || p.z() > g.z_hi - mz) continue;
+    const bool tall = p.z() >= g.z_tall;
+    const Eigen::Vector2f q = p.head<2>();
+    const float range = (q - g.o2).norm();
+    bool walker = false;
+    for (std::size_t j = 0; j < n_near && !walker; ++j) {
+      const FarFieldExclusion& e = g.exclusions[near_discs[j]];
+      const float r = e.radius + m;
+      walker = (q - e.centre).squaredNorm() < r * r;
+    }
+    if (walker) continue;
+    if (!(range < c.max_range)) {
+      // A surface beyond the range: the column is seen free out to max_range (unless a
+      // nearer surface is found below), which clears what walked through it.
+      if (range >= c.max_range) beyond = q;
+      continue;
+    }
+    const std::size_t b = std::min(g.bins - 1, static_cast<std::size_t>(range / c.cell_size));
+    if (bin_count_[b] < 0xFFFF) ++bin_count_[b];
+    if (tall && bin_tall_[b] < 0xFFFF) ++bin_tall_[b];
+    bin_sum_[b] += q;
+  }
+  return beyond;
+}
+
+std::size_t FarFieldLayer::densest_window(std::size_t b, std::size_t w,
+                                          std::size_t bins) const noexcept {
+  std::size_t peak = b;
+  int peak_n = -1;
+  for (std::size_t k = b; k <= std::min(bins - 1, b + 2 * w); ++k) {
+    int m = 0;
+    for (std::size_t j = k; j < std::min(bins, k + w); ++j) m += bin_count_[j];
+    if (m > peak_n) {
+      peak_n = m;
+      peak = k;
+    }
+  }
+  return peak;
+}
+
+void FarFieldLayer::mark_column(const FrameGeometry& g, const Eigen::Vector2f& beyond) noexcept {
+  const FarFieldConfig& c = config_;
+  const float bin = c.cell_size;
+  const std::size_t bins = g.bins;
+  // The first two surfaces of the column: the nearest window of range bins, as wide as the
+  // noise at that range, holding at least min_pixels points.
+  int surfaces = 0;
+  std::size_t b = 0;
+  while (b < bins && surfaces < 2) {
+    const float r_b = (static_cast<float>(b) + 0.5f) * bin;
+    const std::size_t w =
+        std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(sigma(r_b) / bin)));
+    int n = 0;
+    for (std::size_t k = b; k < std::min(bins, b + w); ++k) n += bin_count_[k];
+    if (n < c.min_pixels) {
+      ++b;
+      continue;
+    }
+    // The noise spreads a surface along the ray, and its near tail triggers first: the
+    // surface is the densest window in the next two windows, and its position the centroid of
+    // the points in that window (a wider one would mix in a walker just in front of a wall).
+    const std::size_t lo = densest_window(b, w, bins);
+    const std::size_t end = std::min(bins, lo + w);
+    int total = 0;
+    int tall = 0;
+    Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+    for (std::size_t k = lo; k < end; ++k) {
+      total += bin_count_[k];
+      tall += bin_tall_[k];
+      sum += bin_sum_[k];
+    }
+    mark_surface(g.o2, sum / static_cast<float>(total), surfaces == 0, tall > 0);
+    ++surfaces;
+    // The far tail of this surface is not a second one.
+    b = end + 2 * w;
+  }
+  if (surfaces == 0 && std::isfinite(beyond.x())) {
+    const Eigen::Vector2f ray = beyond - g.o2;
+    add_free(g.o2, g.o2 + ray * (c.max_range / ray.norm()));
+  }
+}
+
+void FarFieldLayer::mark_surface(const Eigen::Vector2f& o2, const Eigen::Vector2f& hit, bool first,
+                                 bool tall) noexcept {
+  const Eigen::Vector2f ray = hit - o2;
+  const float range = ray.norm();
+  if (first && range > 0.0f) {
+    // Seen free up to the surface, less half its noise and a cell.
+    const float free_to = range - 0.5f * sigma(range) - config_.cell_size;
+    if (free_to > 0.0f) add_free(o2, o2 + ray * (free_to / range));
+  }
+  // Only a surface taller than a person is a wall: walkers the tracker has not (yet) got
+  // would otherwise leave remembered trails. Lower ones still end the free ray.
+  if (range >= config_.hit_min_range && tall) {
+    add_hit(hit);
+    ++last_hits_;
+  }
+}
+
+Status FarFieldLayer::update(const DepthView& depth, const CameraIntrinsics& camera,
+                             const Pose& T_map_camera, const FarFieldExclusion* exclusions,
+                             std::size_t count) noexcept {
+  if (!initialised_) return Status::kNotInitialized;
+  const Status s = check_update_input(depth, camera, T_map_camera, exclusions, count);
+  if (!ok(s)) return s;
+  ++frame_;
+  last_hits_ = 0;
+  const FrameGeometry g = frame_geometry(camera, T_map_camera, exclusions, count);
+  const int stride = config_.pixel_stride;
   for (int u = stride / 2; u < depth.width; u += stride) {
-    std::fill(bin_count_.begin(), bin_count_.begin() + static_cast<std::ptrdiff_t>(bins), 0);
-    std::fill(bin_tall_.begin(), bin_tall_.begin() + static_cast<std::ptrdiff_t>(bins), 0);
-    for (std::size_t b = 0; b < bins; ++b) bin_sum_[b].setZero();
-    const float xn = (static_cast<float>(u) - camera.cx) * inv_fx;
-    // Map-frame ray direction of pixel (u, v) with unit depth: col_dir + (v - cy) * row_step.
-    const Eigen::Vector3f col_dir = R.col(0) * xn + R.col(2);
-    std::size_t n_near = 0;
-    if (count > 0) {
-      const Eigen::Vector3f top = col_dir - camera.cy * row_step;
-      const Eigen::Vector3f bottom =
-          col_dir + (static_cast<float>(depth.height) - camera.cy) * row_step;
-      const float a0 = std::atan2(top.y(), top.x());
-      const float a1 = std::atan2(bottom.y(), bottom.x());
-      const float mid = a0 + 0.5f * wrap(a1 - a0);
-      const float span = 0.5f * std::fabs(wrap(a1 - a0));
-      for (std::size_t k = 0; k < count; ++k) {
-        if (std::fabs(wrap(disc_angle[k] - mid)) <= disc_half[k] + span + 0.01f) {
-          near_discs[n_near++] = k;
-        }
-      }
-    }
-    Eigen::Vector2f beyond(std::numeric_limits<float>::quiet_NaN(), 0.0f);
-    for (int v = stride / 2; v < depth.height; v += stride) {
-      const std::uint16_t raw = depth.at(u, v);
-      if (raw == 0) continue;
-      const float d = static_cast<float>(raw) * camera.depth_scale;
-      const Eigen::Vector3f p =
-          origin + d * (col_dir + (static_cast<float>(v) - camera.cy) * row_step);
-      // Floor and ceiling: the band's edges move in by the depth noise's vertical share, so
-      // neither leaks into it.
-      const float m = sigma(d);
-      const float mz = m * std::fabs(p.z() - origin.z()) / d;
-      if (p.z() < z_lo + mz || p.z() > z_hi - mz) continue;
-      const bool tall = p.z() >= z_tall;
-      const Eigen::Vector2f q = p.head<2>();
-      const float range = (q - o2).norm();
-      bool walker = false;
-      for (std::size_t j = 0; j < n_near && !walker; ++j) {
-        const FarFieldExclusion& e = exclusions[near_discs[j]];
-        const float r = e.radius + m;
-        walker = (q - e.centre).squaredNorm() < r * r;
-      }
-      if (walker) continue;
-      if (!(range < c.max_range)) {
-        // A surface beyond the range: the column is seen free out to max_range (unless a
-        // nearer surface is found below), which clears what walked through it.
-        if (range >= c.max_range) beyond = q;
-        continue;
-      }
-      const std::size_t b = std::min(bins - 1, static_cast<std::size_t>(range / bin));
-      if (bin_count_[b] < 0xFFFF) ++bin_count_[b];
-      if (tall && bin_tall_[b] < 0xFFFF) ++bin_tall_[b];
-      bin_sum_[b] += q;
-    }
-
-    // The first two surfaces of the column: the nearest window of range bins, as wide as the
-    // noise at that range, holding at least min_pixels points. The surface is the centroid of
-    // the points within two windows of it (noise spreads a wall both ways along the ray).
-    int surfaces = 0;
-    std::size_t b = 0;
-    while (b < bins && surfaces < 2) {
-      const float r_b = (static_cast<float>(b) + 0.5f) * bin;
-      const std::size_t w =
-          std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(sigma(r_b) / bin)));
-      int n = 0;
-      for (std::size_t k = b; k < std::min(bins, b + w); ++k) n += bin_count_[k];
-      if (n < c.min_pixels) {
-        ++b;
-        continue;
-      }
-      // The noise spreads a surface along the ray, and its near tail triggers first: the
-      // surface is the densest window in the next two windows, and its position the centroid of
-      // the points in that window (a wider one would mix in a walker just in front of a wall).
-      std::size_t peak = b;
-      int peak_n = -1;
-      for (std::size_t k = b; k <= std::min(bins - 1, b + 2 * w); ++k) {
-        int m = 0;
-        for (std::size_t j = k; j < std::min(bins, k + w); ++j) m += bin_count_[j];
-        if (m > peak_n) {
-          peak_n = m;
-          peak = k;
-        }
-      }
-      const std::size_t lo = peak;
-      const std::size_t end = std::min(bins, peak + w);
-      int total = 0;
-      int tall = 0;
-      Eigen::Vector2f sum = Eigen::Vector2f::Zero();
-      for (std::size_t k = lo; k < end; ++k) {
-        total += bin_count_[k];
-        tall += bin_tall_[k];
-        sum += bin_sum_[k];
-      }
-      const Eigen::Vector2f hit = sum / static_cast<float>(total);
-      const Eigen::Vector2f ray = hit - o2;
-      const float range = ray.norm();
-      if (surfaces == 0 && range > 0.0f) {
-        // Seen free up to the surface, less half its noise and a cell.
-        const float free_to = range - 0.5f * sigma(range) - bin;
-        if (free_to > 0.0f) add_free(o2, o2 + ray * (free_to / range));
-      }
-      // Only a surface taller than a person is a wall: walkers the tracker has not (yet) got
-      // would otherwise leave remembered trails. Lower ones still end the free ray.
-      if (range >= c.hit_min_range && tall > 0) {
-        add_hit(hit);
-        ++last_hits_;
-      }
-      ++surfaces;
-      // The far tail of this surface is not a second one.
-      b = end + 2 * w;
-    }
-    if (surfaces == 0 && std::isfinite(beyond.x())) {
-      const Eigen::Vector2f ray = beyond - o2;
-      add_free(o2, o2 + ray * (c.max_range / ray.norm()));
-    }
+    const Eigen::Vector2f beyond = bin_column(g, depth, u);
+    mark_column(g, beyond);
   }
   return Status::kOk;
 }

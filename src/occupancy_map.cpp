@@ -928,22 +928,16 @@ bool OccupancyMap::start_ray(std::uint32_t pixel, const DepthView& depth, const 
   const Eigen::Array4f d = from_end ? Eigen::Array4f(origin4_ - end) : end - origin4_;
   const IndexVec& from = from_end ? last : camera;
   const IndexVec& to = from_end ? camera : last;
-  const float res = resolution_;
   const auto axis = [&](std::size_t a, std::int32_t& i, std::int32_t& s, std::int32_t& r,
                         float& t_max, float& t_delta) {
+    const int e = static_cast<int>(a);
+    const detail::AxisStart start =
+        detail::start_axis(from[a], to[a], from_point[e], d[e], resolution_);
     i = from[a];
-    const std::int32_t e = to[a];
-    s = e >= i ? 1 : -1;
-    r = std::abs(e - i);
-    const float di = d[static_cast<int>(a)];
-    if (i == e || di == 0.f) {
-      t_max = std::numeric_limits<float>::infinity();
-      t_delta = std::numeric_limits<float>::infinity();
-      return;
-    }
-    const float boundary = static_cast<float>(i + (s > 0 ? 1 : 0)) * res;
-    t_max = (boundary - from_point[static_cast<int>(a)]) / di;
-    t_delta = res / std::fabs(di);
+    s = start.step;
+    r = start.remaining;
+    t_max = start.t_max;
+    t_delta = start.t_delta;
   };
   axis(0, w.ix, w.sx, w.rx, w.tx, w.dx);
   axis(1, w.iy, w.sy, w.ry, w.ty, w.dy);

@@ -91,26 +91,40 @@ struct SegmentWalk {
   }
 };
 
+/// One axis of a voxel walk from voxel index `from` (point coordinate `a`) to voxel index `to`
+/// along `d` (t in [0, 1] along the segment): step sign, steps left, t of the first boundary and
+/// t between boundaries; no steps and t = inf when the axis does not move.
+struct AxisStart {
+  std::int32_t step = 1;
+  std::int32_t remaining = 0;
+  float t_max = std::numeric_limits<float>::infinity();
+  float t_delta = std::numeric_limits<float>::infinity();
+};
+inline AxisStart start_axis(std::int32_t from, std::int32_t to, float a, float d,
+                            float resolution) noexcept {
+  AxisStart s;
+  s.step = to > from ? 1 : -1;
+  if (to == from || d == 0.f) return s;
+  s.remaining = std::abs(to - from);
+  const float boundary = static_cast<float>(from + (s.step > 0 ? 1 : 0)) * resolution;
+  s.t_max = (boundary - a) / d;
+  s.t_delta = resolution / std::fabs(d);
+  return s;
+}
+
 inline SegmentWalk start_segment_walk(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                                       const std::array<std::int32_t, 3>& idx,
                                       const std::array<std::int32_t, 3>& end,
                                       float resolution) noexcept {
   SegmentWalk w{};
   const Eigen::Vector3f d = b - a;
-  constexpr float kInf = std::numeric_limits<float>::infinity();
   for (std::size_t ax = 0; ax < 3; ++ax) {
     const int e = static_cast<int>(ax);
-    w.remaining[ax] = std::abs(end[ax] - idx[ax]);
-    w.step[ax] = end[ax] > idx[ax] ? 1 : -1;
-    if (w.remaining[ax] == 0 || d[e] == 0.f) {
-      w.remaining[ax] = 0;
-      w.t_max[ax] = kInf;
-      w.t_delta[ax] = kInf;
-      continue;
-    }
-    const float boundary = static_cast<float>(idx[ax] + (w.step[ax] > 0 ? 1 : 0)) * resolution;
-    w.t_max[ax] = (boundary - a[e]) / d[e];
-    w.t_delta[ax] = resolution / std::fabs(d[e]);
+    const AxisStart s = start_axis(idx[ax], end[ax], a[e], d[e], resolution);
+    w.step[ax] = s.step;
+    w.remaining[ax] = s.remaining;
+    w.t_max[ax] = s.t_max;
+    w.t_delta[ax] = s.t_delta;
   }
   return w;
 }
@@ -136,21 +150,51 @@ struct RayWalk {
 /// a step is one axis choice, one index add, one t add and one decrement; steps, end indices
 /// and block faces are only looked at in the (rare) event branch. The t values get the same
 /// float additions in the same order as the plain voxel walk, so the voxels are the same.
-// The one function over 80 lines left in the map: the three axis branches are the hot loop of the
-// whole frame, kept inline side by side (splitting them is open work, measured first).
+/// The rare event of one axis of walk_ray(), after its step: its last step or its block face,
+/// whichever came first. `r` steps left, `c` steps to the block face, `t`/`d` its next boundary
+/// and spacing, `k` steps to its next event, `o` its index offset inside a block, `b`/`s` its
+/// block index and step sign. When the walk crosses into the next block (`li` wraps), calls
+/// on_cross() after moving `b`.
+template <int kBits, class OnCross>
+inline void axis_event(std::int32_t& r, std::int32_t& c, float& t, float d, std::int32_t& k,
+                       std::int32_t& li, std::int32_t o, std::int32_t& b, std::int32_t s,
+                       const OnCross& on_cross) noexcept {
+  constexpr std::int32_t kEdge = 1 << kBits;
+  const std::int32_t done = std::min(c, r);
+  r -= done;
+  c -= done;
+  t = r == 0 ? std::numeric_limits<float>::infinity() : t + d;
+  if (c == 0) {
+    li -= kEdge * o;  // wrap to the other face of the next block
+    b += s;
+    c = kEdge;
+    on_cross();
+  }
+  // An axis without steps has t = inf and is never chosen, so its event count never runs out.
+  k = r == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(c, r);
+}
+
+/// Walks `n` voxels of `w` (blocks of 2^kBits voxels per edge), calling cursor.enter(bi, bj,
+/// bk, n) on each block entered, cursor.visit(li) on each voxel (li: index inside the block;
+/// true stops the walk) and cursor.leave(n) on leaving a block. Returns the visits left,
+/// the stopping voxel included, when the cursor stopped the walk; 0 when it ran to the end.
+///
+/// The walk keeps the voxel's index inside its block and, per axis, the steps left to the next
+/// event of that axis: its block face or its last step, whichever comes first. Between events
+/// a step is one axis choice, one index add, one t add and one decrement; steps, end indices
+/// and block faces are only looked at in the (rare) event branch, axis_event(). The t values
+/// get the same float additions in the same order as the plain voxel walk, so the voxels are
+/// the same.
 template <int kBits, class Cursor>
-std::size_t walk_ray(RayWalk& w, std::size_t n,  // NOLINT(readability-function-size)
-                     Cursor& cursor) noexcept {
+std::size_t walk_ray(RayWalk& w, std::size_t n, Cursor& cursor) noexcept {
   constexpr std::int32_t kEdge = 1 << kBits;
   constexpr std::int32_t kM = kEdge - 1;
-  constexpr float kInf = std::numeric_limits<float>::infinity();
   std::int32_t bx = w.ix >> kBits, by = w.iy >> kBits, bz = w.iz >> kBits;
   const auto to_boundary = [](std::int32_t i, std::int32_t s) {
     return s > 0 ? kEdge - (i & kM) : (i & kM) + 1;
   };
   std::int32_t cx = to_boundary(w.ix, w.sx), cy = to_boundary(w.iy, w.sy),
                cz = to_boundary(w.iz, w.sz);
-  // An axis without steps has t = inf and is never chosen, so its event count never runs out.
   const auto to_event = [](std::int32_t face, std::int32_t left) {
     return left == 0 ? std::numeric_limits<std::int32_t>::max() : std::min(face, left);
   };
@@ -160,6 +204,10 @@ std::size_t walk_ray(RayWalk& w, std::size_t n,  // NOLINT(readability-function-
   std::int32_t kx = to_event(cx, rx), ky = to_event(cy, ry), kz = to_event(cz, rz);
   const std::int32_t ox = w.sx, oy = w.sy * kEdge, oz = w.sz * kEdge * kEdge;
   std::int32_t li = (w.ix & kM) | ((w.iy & kM) << kBits) | ((w.iz & kM) << (2 * kBits));
+  const auto cross = [&] {
+    cursor.leave(n);
+    cursor.enter(bx, by, bz, n);
+  };
   cursor.enter(bx, by, bz, n);
   if (n == 0) return 0;
   for (;;) {
@@ -175,54 +223,21 @@ std::size_t walk_ray(RayWalk& w, std::size_t n,  // NOLINT(readability-function-
         tx += dx;
         continue;
       }
-      const std::int32_t done = std::min(cx, rx);
-      rx -= done;
-      cx -= done;
-      tx = rx == 0 ? kInf : tx + dx;
-      if (cx == 0) {
-        li -= kEdge * ox;  // wrap to the other face of the next block
-        bx += w.sx;
-        cx = kEdge;
-        cursor.leave(n);
-        cursor.enter(bx, by, bz, n);
-      }
-      kx = to_event(cx, rx);
+      axis_event<kBits>(rx, cx, tx, dx, kx, li, ox, bx, w.sx, cross);
     } else if (ty <= tz) {
       li += oy;
       if (--ky != 0) {
         ty += dy;
         continue;
       }
-      const std::int32_t done = std::min(cy, ry);
-      ry -= done;
-      cy -= done;
-      ty = ry == 0 ? kInf : ty + dy;
-      if (cy == 0) {
-        li -= kEdge * oy;
-        by += w.sy;
-        cy = kEdge;
-        cursor.leave(n);
-        cursor.enter(bx, by, bz, n);
-      }
-      ky = to_event(cy, ry);
+      axis_event<kBits>(ry, cy, ty, dy, ky, li, oy, by, w.sy, cross);
     } else {
       li += oz;
       if (--kz != 0) {
         tz += dz;
         continue;
       }
-      const std::int32_t done = std::min(cz, rz);
-      rz -= done;
-      cz -= done;
-      tz = rz == 0 ? kInf : tz + dz;
-      if (cz == 0) {
-        li -= kEdge * oz;
-        bz += w.sz;
-        cz = kEdge;
-        cursor.leave(n);
-        cursor.enter(bx, by, bz, n);
-      }
-      kz = to_event(cz, rz);
+      axis_event<kBits>(rz, cz, tz, dz, kz, li, oz, bz, w.sz, cross);
     }
   }
   cursor.leave(0);

@@ -97,6 +97,22 @@ class FarFieldLayer {
   bool key(const Eigen::Vector2f& p, std::int32_t* ix, std::int32_t* iy) const noexcept;
   void add_hit(const Eigen::Vector2f& p) noexcept;
   void add_free(const Eigen::Vector2f& from, const Eigen::Vector2f& to) noexcept;
+  // update() in steps (far_field_layer.cpp).
+  struct FrameGeometry;
+  using DiscList = std::array<std::size_t, kFarFieldMaxExclusions>;
+  float sigma(float d) const noexcept;  ///< depth noise margin at range d
+  FrameGeometry frame_geometry(const CameraIntrinsics& camera, const Pose& T_map_camera,
+                               const FarFieldExclusion* exclusions,
+                               std::size_t count) const noexcept;
+  std::size_t column_discs(const FrameGeometry& g, const Eigen::Vector3f& col_dir, int height,
+                           DiscList& near) const noexcept;
+  /// Fills the range-bin histogram of column u; returns the last point beyond the range (NaN
+  /// when none).
+  Eigen::Vector2f bin_column(const FrameGeometry& g, const DepthView& depth, int u) noexcept;
+  std::size_t densest_window(std::size_t b, std::size_t w, std::size_t bins) const noexcept;
+  void mark_column(const FrameGeometry& g, const Eigen::Vector2f& beyond) noexcept;
+  void mark_surface(const Eigen::Vector2f& o2, const Eigen::Vector2f& hit, bool first,
+                    bool tall) noexcept;
 
   FarFieldConfig config_{};
   float ground_height_ = 0.0f;
