@@ -222,7 +222,7 @@ Scene standing() {
 
 Scene crowd() {
   Builder b("crowd",
-            "15 people in three lanes crossing both ways, in groups of 2-3 side by side, "
+            "16 people in three lanes crossing both ways, in groups of 2-3 side by side, "
             "stopping, overtaking, passing within 1 m; a group standing talking; camera "
             "hovering");
   b.room(-1.5, -6.5, 8.2, 6.5);  // the far wall just within the camera's 8 m
