@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -13,6 +14,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iterator>
+#include <map>
 #include <string>
 
 #include "common/obstacles.hpp"
@@ -762,10 +764,12 @@ TEST(Simulator, BuiltInScenesAreSound) {
       const auto& w = s.walkers[k];
       EXPECT_GE(w.speed, 0.5);
       EXPECT_LE(w.speed, 1.5);
-      // Smoothed loops keep clear of the static world.
+      // Smoothed loops keep clear of the static world (where the walker actually walks: group
+      // members beside the loop's centre line).
       double clearance = 1e9;
-      for (const auto& p : motions[k].path().points) {
-        clearance = std::min(clearance, s.world.top_view_distance(p, 0.2, w.height));
+      for (double t = 0.0; t < motions[k].period(); t += 0.02) {
+        clearance =
+            std::min(clearance, s.world.top_view_distance(motions[k].position(t), 0.2, w.height));
       }
       EXPECT_GE(clearance, w.radius + 0.1) << name << " walker " << k + 1;
     }
@@ -786,6 +790,112 @@ TEST(Simulator, BuiltInScenesAreSound) {
     EXPECT_LE(fastest, 1.02) << name;
   }
   expect_error([] { (void)sim::make_scene("moon", 1); }, {"moon", "env_a"});
+}
+
+namespace {
+// Horizontal bearing of a point seen from the camera at time t, and whether it is in the
+// horizontal field of view.
+bool in_view(const sim::CameraMotion& cam, double t, const Eigen::Vector2d& p) {
+  const Eigen::Vector2d d = p - cam.position_xy(t);
+  double a = std::atan2(d.y(), d.x()) - cam.yaw(t);
+  a = std::atan2(std::sin(a), std::cos(a));
+  return std::fabs(a) < std::atan(320.0 / 385.0);
+}
+}  // namespace
+
+// Issue 15's crowd: >= 15 people, groups side by side keeping formation, both crossing
+// directions, stops, someone within 1 m of the camera, smooth headings, nobody through anybody.
+TEST(Simulator, CrowdSceneHasGroupsStopsAndClosePasses) {
+  for (std::uint64_t seed : {1, 2}) {
+    const sim::Scene s = sim::make_scene("crowd", seed);
+    ASSERT_GE(s.walkers.size(), 15u);
+    EXPECT_GE(s.world.cylinders.size(), 3u);  // the group standing talking
+    std::vector<sim::WalkerMotion> motions(s.walkers.begin(), s.walkers.end());
+    const sim::CameraMotion cam(s.camera);
+    std::map<int, std::vector<std::size_t>> groups;
+    for (std::size_t k = 0; k < s.walkers.size(); ++k) {
+      EXPECT_GE(s.walkers[k].speed, 0.8);
+      EXPECT_LE(s.walkers[k].speed, 1.6);
+      groups[s.walkers[k].group].push_back(k);
+    }
+    int pairs = 0, triples = 0;
+    for (const auto& g : groups) {
+      pairs += g.second.size() == 2;
+      triples += g.second.size() == 3;
+    }
+    EXPECT_GE(pairs, 2);
+    EXPECT_GE(triples, 2);
+    double closest = 1e9, worst_turn = 0.0, worst_formation = 0.0;
+    int overlaps = 0, towards_left = 0, towards_right = 0;
+    std::vector<int> stopped_in_view(s.walkers.size(), 0);
+    const double dt = 1.0 / s.fps;
+    for (int f = 0; f < s.default_frames; ++f) {
+      const double t = f * dt;
+      const auto st = sim::walker_states(motions, t);
+      const auto next = sim::walker_states(motions, t + dt);
+      for (std::size_t a = 0; a < st.size(); ++a) {
+        const bool seen = in_view(cam, t, st[a].position);
+        const Eigen::Vector2d v = st[a].velocity, v1 = next[a].velocity;
+        if (seen && (st[a].position - cam.position_xy(t)).norm() < closest) {
+          closest = (st[a].position - cam.position_xy(t)).norm();
+        }
+        if (seen && v.norm() < 0.01) ++stopped_in_view[a];
+        if (seen && v.y() > 0.5) ++towards_left;
+        if (seen && v.y() < -0.5) ++towards_right;
+        if (v.norm() > 0.3 && v1.norm() > 0.3) {  // heading change per second
+          const double turn = std::acos(std::clamp(v.normalized().dot(v1.normalized()), -1.0, 1.0));
+          worst_turn = std::max(worst_turn, turn / dt);
+        }
+        for (std::size_t b = a + 1; b < st.size(); ++b) {
+          const Eigen::Vector2d d = st[b].position - st[a].position;
+          overlaps += d.norm() < st[a].radius + st[b].radius;
+          // Side by side: neighbours in a group stay 0.65 m apart across the walking direction.
+          if (s.walkers[a].group == s.walkers[b].group && b == a + 1 && v.norm() > 0.3) {
+            worst_formation = std::max(worst_formation, std::fabs(d.norm() - 0.65));
+            EXPECT_LT(std::fabs(d.normalized().dot(v.normalized())), 0.15) << a << " t " << t;
+          }
+        }
+      }
+    }
+    EXPECT_EQ(overlaps, 0) << "seed " << seed;
+    EXPECT_LT(closest, 1.0) << "seed " << seed;
+    EXPECT_LT(worst_turn, 2.0) << "rad/s, seed " << seed;  // people turn, they do not spin
+    EXPECT_LT(worst_formation, 0.05) << "seed " << seed;
+    EXPECT_GT(towards_left, 0);
+    EXPECT_GT(towards_right, 0);
+    // Some people stand still in view for a few seconds, then walk on.
+    const int stops = static_cast<int>(std::count_if(stopped_in_view.begin(), stopped_in_view.end(),
+                                                     [&](int n) { return n >= 2 * s.fps; }));
+    EXPECT_GE(stops, 2) << "seed " << seed;
+  }
+}
+
+// A few frames only (CI time): same seed, same bytes; the depth is valid and shows people.
+TEST(Simulator, CrowdSceneRendersValidDepthDeterministically) {
+  TempDir a, b;
+  sim::SimulateOptions opt;
+  opt.frames = 2;
+  opt.seed = 2;
+  opt.picture = false;
+  sim::simulate(sim::make_scene("crowd", 2), a.str(), opt);
+  sim::simulate(sim::make_scene("crowd", 2), b.str(), opt);
+  for (const auto& e : fs::recursive_directory_iterator(a.str())) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = fs::relative(e.path(), a.str()).string();
+    EXPECT_EQ(slurp(e.path().string()), slurp(b / rel)) << rel;
+  }
+  const Sequence seq = read_sequence(a.str());
+  ASSERT_EQ(seq.frames.size(), 2u);
+  const Image16 depth = load_depth(seq, seq.frames[1]);
+  long valid = 0;
+  for (const auto d : depth.pixels) valid += d > 0 && d <= 8000;
+  // Above the far wall there is nothing within range (no ceiling), as in the other scenes.
+  EXPECT_GT(static_cast<double>(valid) / static_cast<double>(depth.pixels.size()), 0.7);
+  const auto obstacles = read_obstacles(a / "obstacles.txt");
+  EXPECT_EQ(obstacles.size(), 2u * sim::make_scene("crowd", 2).walkers.size());
+  int shown = 0;
+  for (const auto& o : obstacles) shown += o.visible >= 0.5;
+  EXPECT_GE(shown, 2 * 3);  // at least three people in view in each frame
 }
 
 TEST(Simulator, WalkerPausesAndKeepsItsCruiseSpeed) {

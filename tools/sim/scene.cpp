@@ -89,12 +89,58 @@ namespace {
 constexpr double kWalkerAccel = 1.0;  // m/s^2 into and out of pauses
 }
 
+namespace {
+
+// Left normal at each point of a closed dense path: the bisector of the two segments meeting
+// there, so a lateral offset turns as smoothly as the path.
+std::vector<Eigen::Vector2d> vertex_normals(const DensePath& path) {
+  const auto& p = path.points;
+  const std::size_t n = p.size();
+  std::vector<Eigen::Vector2d> normals(n, Eigen::Vector2d(0, 1));
+  if (n < 3) return normals;
+  for (std::size_t i = 0; i < n; ++i) {
+    // The first and last points coincide (closed loop): their neighbours wrap around.
+    const Eigen::Vector2d prev = i > 0 ? p[i - 1] : p[n - 2];
+    const Eigen::Vector2d next = i + 1 < n ? p[i + 1] : p[1];
+    const Eigen::Vector2d t = (p[i] - prev).normalized() + (next - p[i]).normalized();
+    if (t.norm() > 1e-9) normals[i] = Eigen::Vector2d(-t.y(), t.x()).normalized();
+  }
+  return normals;
+}
+
+// Pace along a closed dense path for a group of half width w: arc length plus w times the
+// heading change, i.e. the distance the outer member walks. Timing the walk by pace keeps
+// every member at or below the cruise speed in turns.
+std::vector<double> group_pace(const DensePath& path, const std::vector<Eigen::Vector2d>& normals,
+                               double w) {
+  std::vector<double> pace(path.points.size(), 0.0);
+  for (std::size_t i = 1; i < pace.size(); ++i) {
+    const double turn = std::acos(std::clamp(normals[i - 1].dot(normals[i]), -1.0, 1.0));
+    pace[i] = pace[i - 1] + (path.s[i] - path.s[i - 1]) + w * turn;
+  }
+  return pace;
+}
+
+}  // namespace
+
 WalkerMotion::WalkerMotion(const WalkerSpec& spec) : spec_(spec) {
   std::vector<Eigen::Vector2d> pts;
   for (const auto& w : spec.waypoints) pts.push_back(w.p);
   std::vector<double> corner_s;
-  path_ = smooth_path(pts, true, 0.7, &corner_s);
-  const double L = path_.length();
+  path_ = smooth_path(pts, true, spec.corner_cut, &corner_s);
+  double L = path_.length();
+  const double w = std::max(spec.half_width, std::fabs(spec.lateral));
+  if (w > 0.0 && path_.points.size() >= 3) {
+    normals_ = vertex_normals(path_);
+    pace_ = group_pace(path_, normals_, w);
+    for (auto& c : corner_s) {
+      // Corners (pause points) are path points: convert their arc length to pace.
+      const auto it = std::lower_bound(path_.s.begin(), path_.s.end(), c - 1e-9);
+      c = pace_[static_cast<std::size_t>(it - path_.s.begin())];
+    }
+    L = pace_.back();
+  }
+  loop_pace_ = L;
   // Legs run between pause points; without pauses the whole loop is one leg at cruise speed.
   std::vector<std::size_t> pauses;
   for (std::size_t i = 0; i < spec.waypoints.size(); ++i) {
@@ -130,21 +176,34 @@ double WalkerMotion::leg_distance(const Leg& leg, double tau) const {
   return leg.length - 0.5 * a * r * r;
 }
 
+Eigen::Vector2d WalkerMotion::point(double pace) const {
+  if (pace_.empty()) return path_.at(pace);
+  const auto& p = path_.points;
+  const auto it = std::upper_bound(pace_.begin(), pace_.end(), pace);
+  if (it == pace_.begin()) return p.front() + spec_.lateral * normals_.front();
+  if (it == pace_.end()) return p.back() + spec_.lateral * normals_.back();
+  const std::size_t i = static_cast<std::size_t>(it - pace_.begin());  // pace_[i-1] <= pace
+  const double seg = pace_[i] - pace_[i - 1];
+  const double a = seg > 0 ? (pace - pace_[i - 1]) / seg : 0.0;
+  const Eigen::Vector2d n = ((1.0 - a) * normals_[i - 1] + a * normals_[i]).normalized();
+  return (1.0 - a) * p[i - 1] + a * p[i] + spec_.lateral * n;
+}
+
 Eigen::Vector2d WalkerMotion::position(double t) const {
-  const double L = path_.length();
-  if (L <= 0.0 || period_ <= 0.0) return path_.at(0.0);
+  const double L = loop_pace_;
+  if (L <= 0.0 || period_ <= 0.0) return point(0.0);
   double tau = std::fmod(t + spec_.time_offset, period_);
   if (tau < 0) tau += period_;
   for (const auto& leg : legs_) {
     // Each leg starts with the pause at its first corner, then walks to the next pause point.
-    if (tau < leg.pause) return path_.at(std::fmod(leg.s0, L));
+    if (tau < leg.pause) return point(std::fmod(leg.s0, L));
     tau -= leg.pause;
     if (tau < leg.duration || &leg == &legs_.back()) {
-      return path_.at(std::fmod(leg.s0 + leg_distance(leg, std::min(tau, leg.duration)), L));
+      return point(std::fmod(leg.s0 + leg_distance(leg, std::min(tau, leg.duration)), L));
     }
     tau -= leg.duration;
   }
-  return path_.at(0.0);
+  return point(0.0);
 }
 
 Eigen::Vector2d WalkerMotion::velocity(double t) const {

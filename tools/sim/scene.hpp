@@ -35,12 +35,19 @@ struct Waypoint {
 
 /// A person walking a closed loop of waypoints (corners rounded) at `speed`, accelerating at
 /// 1 m/s^2 into and out of pauses. Shape: upright cylinder (radius, height) standing on the floor.
+/// People walking side by side share one loop (the group's centre line) and keep a lateral place
+/// in it; the group turns at the pace of its outer member, so nobody walks faster than `speed`.
 struct WalkerSpec {
   std::vector<Waypoint> waypoints;
   double speed = 1.0;  ///< cruise speed, 0.5-1.5 m/s
   double radius = 0.25;
   double height = 1.7;
   double time_offset = 0.0;  ///< seconds into its loop at t = 0
+  double corner_cut = 0.7;   ///< m cut off each side of a corner by its rounding
+  double lateral = 0.0;      ///< m to the left of the loop's centre line (place in a group)
+  double half_width = 0.0;   ///< m, largest |lateral| of the group: paces its turns
+  int lane = 0;   ///< > 0: walkers sharing a lane share the seed's speed jitter (no catching up)
+  int group = 0;  ///< > 0: members of a group also share the start-time jitter (keep formation)
 };
 
 /// Precomputed motion of one walker.
@@ -51,14 +58,20 @@ class WalkerMotion {
   Eigen::Vector2d velocity(double t) const;  ///< central difference of position()
   const DensePath& path() const { return path_; }
   const WalkerSpec& spec() const { return spec_; }
+  double period() const { return period_; }  ///< seconds per loop, pauses included
 
  private:
   struct Leg {
     double s0 = 0, length = 0, duration = 0, pause = 0;
   };
   double leg_distance(const Leg& leg, double tau) const;  // distance covered after tau seconds
+  Eigen::Vector2d point(double pace) const;  // where the walker is at `pace` along its loop
   WalkerSpec spec_;
   DensePath path_;
+  // Groups: pace (the outer member's distance) at each path point; empty = pace is arc length.
+  std::vector<double> pace_;
+  std::vector<Eigen::Vector2d> normals_;  // left normal at each path point (groups only)
+  double loop_pace_ = 0.0;
   std::vector<Leg> legs_;
   double period_ = 0.0;
 };
@@ -109,8 +122,9 @@ CameraModel sim_camera_model();
 /// Names of the built-in scenes, in order.
 std::vector<std::string> scene_names();
 
-/// Builds a built-in scene; `seed` jitters walker speeds (+-8 %, kept in 0.5-1.5 m/s), sizes
-/// and start times a little. Throws ToolError for an unknown name.
+/// Builds a built-in scene; `seed` jitters walker speeds (+-8 %, kept in 0.5-1.5 m/s; one draw
+/// per lane), sizes and start times (one draw per group) a little. Throws ToolError for an unknown
+/// name.
 Scene make_scene(const std::string& name, std::uint64_t seed);
 
 /// Deterministic random numbers (splitmix64): same seed, same sequence on every platform.

@@ -51,6 +51,56 @@ struct Builder {
     w.time_offset = offset;
     scene.walkers.push_back(w);
   }
+  // A lane of the crowd: a stadium-shaped loop, one straight side at x = x_front walked from
+  // y0 to y1, a half circle, the other side at x = x_back walked back, a half circle. The half
+  // circles (waypoints every 15 degrees, radius half the lane spacing) keep a group's inner
+  // member from turning on the spot. `pause` s standing at (x_front, pause_y) if > 0.
+  static std::vector<Waypoint> stadium(double x_front, double x_back, double y0, double y1,
+                                       double pause_y = 0.0, double pause = 0.0) {
+    std::vector<Waypoint> w;
+    const double xm = 0.5 * (x_front + x_back), r = 0.5 * std::fabs(x_back - x_front);
+    const double out = y1 > y0 ? 1.0 : -1.0, side = x_back > x_front ? 1.0 : -1.0;
+    auto half_circle = [&](double y, double bulge, double from) {
+      for (int k = 0; k <= 12; ++k) {  // from x = `from` side across to the other side
+        const double a = M_PI * k / 12.0;
+        w.push_back({{xm - from * side * r * std::cos(a), y + bulge * r * std::sin(a)}, 0.0});
+      }
+    };
+    w.push_back({{x_front, y0}, 0.0});
+    if (pause > 0.0) w.push_back({{x_front, pause_y}, pause});
+    half_circle(y1, out, 1.0);    // (x_front, y1) -> (x_back, y1)
+    half_circle(y0, -out, -1.0);  // (x_back, y0) -> (x_front, y0)
+    w.pop_back();                 // the loop closes on its first waypoint
+    return w;
+  }
+  // Walkers on one lane: units (a group side by side or one person) spread evenly in time
+  // along the loop, starting `phase` (0-1) into it. `sizes` = people per unit; members stand
+  // 0.65 m apart side by side. All units pace turns for the lane's widest group, so they all
+  // move alike (one motion shifted in time) and never catch up with each other.
+  void lane(const std::vector<Waypoint>& wps, double speed, const std::vector<int>& sizes,
+            double phase) {
+    const int lane_id = ++lanes;
+    const int widest = *std::max_element(sizes.begin(), sizes.end());
+    WalkerSpec base;
+    base.waypoints = wps;
+    base.speed = speed;
+    base.corner_cut = 0.5;
+    // Turns paced for at least 0.5 m: even alone, people slow down to turn round.
+    base.half_width = std::max(0.5, 0.325 * (widest - 1));
+    base.lane = lane_id;
+    const double period = WalkerMotion(base).period();
+    for (std::size_t u = 0; u < sizes.size(); ++u) {
+      WalkerSpec w = base;
+      w.group = ++groups;
+      w.time_offset = period * std::fmod(phase + static_cast<double>(u) / sizes.size(), 1.0);
+      for (int m = 0; m < sizes[u]; ++m) {
+        w.lateral = 0.65 * (m - 0.5 * (sizes[u] - 1));
+        scene.walkers.push_back(w);
+      }
+    }
+  }
+  int lanes = 0, groups = 0;
+
   void hover(double x, double y, double z, double yaw, double sweep, double pitch = 0.12) {
     auto& c = scene.camera;
     c.hover = true;
@@ -170,10 +220,35 @@ Scene standing() {
   return b.scene;
 }
 
+Scene crowd() {
+  Builder b("crowd",
+            "16 people in three lanes crossing both ways, in groups of 2-3 side by side, "
+            "stopping, overtaking, passing within 1 m; a group standing talking; camera "
+            "hovering");
+  b.room(-1.5, -6.5, 8.2, 6.5);  // the far wall just within the camera's 8 m
+  b.pillar(7.6, -3.5, 0.3);
+  b.box(7.4, 4.2, 8.0, 5.0, 0.9);
+  // The group standing talking (static: in static_world.txt, not in obstacles.txt).
+  b.standing_person(7.35, 1.6);
+  b.standing_person(7.3, 2.3, 1.68);
+  b.standing_person(7.85, 1.95, 1.8);
+  b.hover(0.0, 0.0, 1.4, 0.0, 0.06, 0.14);
+  // Lanes nest in depth without sharing space, so nobody walks through anybody. Near lane:
+  // two people crossing 0.9 m in front of the camera, coming back at 1.5 m.
+  b.lane(Builder::stadium(0.9, 1.5, -1.9, 1.9), 1.2, {1, 1}, 0.05);
+  // Middle lane: groups side by side crossing at 2.75 m and coming back at 4.7 m, each
+  // stopping 2.5 s in front of the camera.
+  b.lane(Builder::stadium(2.75, 4.7, -3.3, 3.3, 0.3, 2.5), 1.0, {3, 2, 1, 2, 3}, 0.12);
+  // Far lane: faster people overtaking the middle lane's returning groups (same direction,
+  // 0.6 m beside their outer member).
+  b.lane(Builder::stadium(5.95, 6.6, 5.2, -5.2), 1.4, {1, 1, 1}, 0.3);
+  return b.scene;
+}
+
 }  // namespace
 
 std::vector<std::string> scene_names() {
-  return {"corridor", "l_corridor", "env_a", "env_b", "env_c", "standing"};
+  return {"corridor", "l_corridor", "env_a", "env_b", "env_c", "standing", "crowd"};
 }
 
 Scene make_scene(const std::string& name, std::uint64_t seed) {
@@ -190,17 +265,30 @@ Scene make_scene(const std::string& name, std::uint64_t seed) {
     s = env_c();
   } else if (name == "standing") {
     s = standing();
+  } else if (name == "crowd") {
+    s = crowd();
   } else {
     std::string known;
     for (const auto& n : scene_names()) known += " " + n;
     throw ToolError("unknown scene '" + name + "' (built-in scenes:" + known + ")");
   }
   SplitMix64 rng(seed ^ 0x5CE9E5EEDull);
-  for (auto& w : s.walkers) {
+  for (std::size_t k = 0; k < s.walkers.size(); ++k) {
+    auto& w = s.walkers[k];
     w.speed = std::clamp(w.speed * rng.uniform(0.92, 1.08), 0.5, 1.5);
     w.radius = rng.uniform(0.23, 0.27);
     w.height = rng.uniform(1.62, 1.85);
     w.time_offset += rng.uniform(0.0, 0.5);
+    // A lane's walkers share the first one's speed, a group's members its start time too.
+    const auto same = [&](auto member) {
+      return std::find_if(
+          s.walkers.begin(), s.walkers.begin() + static_cast<long>(k),
+          [&](const WalkerSpec& o) { return member(o) > 0 && member(o) == member(w); });
+    };
+    const auto lane = same([](const WalkerSpec& o) { return o.lane; });
+    if (lane != s.walkers.begin() + static_cast<long>(k)) w.speed = lane->speed;
+    const auto group = same([](const WalkerSpec& o) { return o.group; });
+    if (group != s.walkers.begin() + static_cast<long>(k)) w.time_offset = group->time_offset;
   }
   return s;
 }
