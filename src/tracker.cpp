@@ -314,6 +314,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     frame_.track_used[pr.slot] = true;
     correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
     tracks_[pr.slot].out.detection = pr.det;
+    tracks_[pr.slot].out.cut = !frame_.meas[pr.det].in_view;
   }
   coast_unmatched();
   start_tracks(dets, count, stamp);
@@ -400,6 +401,7 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp
     Track& t = tracks_[free_slot];
     start_track(t, frame_.meas[i], stamp);
     t.out.detection = static_cast<std::int32_t>(i);
+    t.out.cut = !frame_.meas[i].in_view;
     count_ever_free(t, dets[i]);
     t.label = ever_free_label(t);
     ++free_slot;

@@ -177,6 +177,8 @@ TEST(TrackerAssociation, PersonCutByTheBorderForTenFramesKeepsOneId) {
     ASSERT_EQ(tracker->update(&d, 1, camera_at(), static_cast<Stamp>(f + 1) * kFrame), Status::kOk);
     ASSERT_EQ(tracker->size(), 1u) << "frame " << f;
     ids.push_back(tracker->obstacle(0).id);
+    // Marked cut exactly while its detection touches the border.
+    EXPECT_EQ(tracker->obstacle(0).cut, f >= 20 && f < 30) << "frame " << f;
   }
   for (std::uint32_t id : ids) EXPECT_EQ(id, ids.front());
 }

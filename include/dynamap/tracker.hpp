@@ -122,13 +122,17 @@ struct TrackedObstacle {
   float continuity = 0.f;                              ///< last C_con (0 until computable)
   bool dynamic = false;                                ///< label after voting
   bool size_fixed = false;                             ///< size frozen after k' frames in view
-  std::uint32_t dynamic_votes = 0;                     ///< dynamic votes in the current window
-  std::uint32_t votes = 0;                             ///< votes in the window (<= c)
-  std::uint32_t dynamic_streak = 0;                    ///< dynamic votes in a row (early label)
-  std::uint32_t age = 0;                               ///< frames since the track started
-  std::uint32_t hits = 0;                              ///< frames with a matched detection
-  std::uint32_t missed_frames = 0;                     ///< consecutive frames without a match
-  Stamp last_seen = 0;                                 ///< stamp of the last matched detection
+  /// The last matched detection touched the image border (within image_margin): the obstacle
+  /// is cut by the view (near the camera or at the edge), its box holds the visible part only
+  /// and its size is not fixed from it. Kept while the track coasts.
+  bool cut = false;
+  std::uint32_t dynamic_votes = 0;   ///< dynamic votes in the current window
+  std::uint32_t votes = 0;           ///< votes in the window (<= c)
+  std::uint32_t dynamic_streak = 0;  ///< dynamic votes in a row (early label)
+  std::uint32_t age = 0;             ///< frames since the track started
+  std::uint32_t hits = 0;            ///< frames with a matched detection
+  std::uint32_t missed_frames = 0;   ///< consecutive frames without a match
+  Stamp last_seen = 0;               ///< stamp of the last matched detection
   /// Index of this frame's detection the track was updated with, -1 when it coasted: lets a
   /// caller (diagnosis tools) relate the estimate to the measurement behind it.
   std::int32_t detection = -1;
