@@ -51,7 +51,8 @@ bool intrinsics_valid(const CameraIntrinsics& cam) noexcept {
 
 // Adds one row's in-band depths dd (d when raw_lo <= d <= raw_hi, else 0) of n pixels p[i] to
 // the column sums cs (dd), cn (1 per in-band pixel) and ct (the running cs: sum over rows of
-// the column sum so far, from which fit_boxes' row moment follows without a multiply), and
+// the column sum so far, from which the column moment sum(v * dd) follows without a multiply;
+// see sum_band_depths_fast), and
 // returns the row's sum and first moment sum(i * dd). Branch-free, one unsigned compare per
 // pixel (d - lo wraps above span for d < lo), restrict pointers so that the compiler vectorises
 // it without run-time alias checks; the moment is summed in 32 bits per 16 pixels
