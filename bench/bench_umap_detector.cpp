@@ -1,11 +1,17 @@
 // U-map detector benchmarks: histogram pass (scalar reference vs fast path, same run, reported
 // as ns per pixel), whole detection, and map refinement, on a 640x480 frame with six obstacles
-// in front of a back wall, above a floor, with stereo-like depth noise and dropouts.
+// in front of a back wall, above a floor, with stereo-like depth noise and dropouts; and whole
+// detection on the recorded frames of a simulated sequence (--sequence=DIR or the environment
+// variable DYNAMAP_BENCH_SEQUENCE; skipped with a message when neither names a readable one).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "dynamap/fixed_hash_map.hpp"
@@ -13,6 +19,9 @@
 #include "dynamap/occupancy_map.hpp"
 #include "dynamap/umap_detector.hpp"
 #include "synthetic_depth.hpp"
+#if defined(DYNAMAP_BENCH_HAVE_SEQUENCES)
+#include "common/sequence.hpp"
+#endif
 
 namespace {
 using namespace dynamap;
@@ -78,12 +87,15 @@ void BM_Histogram(benchmark::State& state) {
 BENCHMARK_TEMPLATE(BM_Histogram, false)->Unit(benchmark::kMicrosecond);
 BENCHMARK_TEMPLATE(BM_Histogram, true)->Unit(benchmark::kMicrosecond);
 
+// Whole detection; arg 0 selects the per-pixel reference height search and
+// box sums (use_fast_measure = false), arg 1 the default.
 template <bool kFast>
 void BM_Detect(benchmark::State& state) {
   const Scene& s = scene();
   auto det = std::make_unique<UMapDetector>();
   UMapDetectorConfig cfg;
   cfg.use_fast_histogram = kFast;
+  cfg.use_fast_measure = state.range(0) == 1;
   if (!ok(det->init(cfg))) state.SkipWithError("init");
   DetectionList out;
   for (auto _ : state) {
@@ -92,10 +104,111 @@ void BM_Detect(benchmark::State& state) {
     benchmark::DoNotOptimize(out.data());
   }
   state.counters["detections"] = static_cast<double>(out.size());
-  state.SetLabel(kFast ? umap_histogram_fast_name() : "scalar");
+  state.SetLabel(std::string(kFast ? umap_histogram_fast_name() : "scalar") +
+                 (cfg.use_fast_measure ? ", fast measure" : ", per-pixel search"));
 }
-BENCHMARK_TEMPLATE(BM_Detect, false)->Unit(benchmark::kMicrosecond);
-BENCHMARK_TEMPLATE(BM_Detect, true)->Unit(benchmark::kMicrosecond);
+BENCHMARK_TEMPLATE(BM_Detect, false)
+    ->ArgName("fast_measure")
+    ->Arg(1)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK_TEMPLATE(BM_Detect, true)
+    ->ArgName("fast_measure")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMicrosecond);
+
+// Recorded frames of a simulated sequence (docs/data_format.md), decoded once before timing.
+struct RecordedFrames {
+  std::string dir;
+  std::string problem;  // why there are no frames
+  CameraIntrinsics cam;
+  std::vector<std::vector<std::uint16_t>> depth;
+  std::vector<Pose> poses;
+  int width = 0, height = 0;
+};
+
+std::string& sequence_dir() {
+  static std::string dir;
+  return dir;
+}
+
+const RecordedFrames& recorded_frames() {
+  static const RecordedFrames r = [] {
+    RecordedFrames f;
+    f.dir = sequence_dir();
+    if (f.dir.empty()) {
+      f.problem = "no sequence: pass --sequence=DIR or set DYNAMAP_BENCH_SEQUENCE";
+      return f;
+    }
+#if defined(DYNAMAP_BENCH_HAVE_SEQUENCES)
+    try {
+      const tools::Sequence seq = tools::read_sequence(f.dir);
+      const tools::CameraModel& c = seq.camera;
+      f.cam.fx = static_cast<float>(c.fx);
+      f.cam.fy = static_cast<float>(c.fy);
+      f.cam.cx = static_cast<float>(c.cx);
+      f.cam.cy = static_cast<float>(c.cy);
+      f.cam.width = c.width;
+      f.cam.height = c.height;
+      f.cam.depth_scale = static_cast<float>(1.0 / c.depth_factor);
+      for (const tools::SequenceFrame& sf : seq.frames) {
+        tools::Image16 im = tools::read_png16(sf.depth_path);
+        f.width = im.width;
+        f.height = im.height;
+        f.depth.push_back(std::move(im.pixels));
+        Pose p;
+        p.translation = sf.pose.translation.cast<float>();
+        p.rotation = sf.pose.rotation.cast<float>().normalized();
+        f.poses.push_back(p);
+      }
+      if (f.depth.empty()) f.problem = f.dir + ": no depth image has a pose";
+    } catch (const std::exception& e) {
+      f.problem = e.what();
+      f.depth.clear();
+    }
+#else
+    f.problem = "built without the tools (DYNAMAP_BUILD_TOOLS=OFF): no PNG reader";
+#endif
+    return f;
+  }();
+  return r;
+}
+
+// Whole detection, one recorded frame per iteration, frames in turn (the pipeline's default
+// detector configuration); arg 0 is the per-pixel reference height search, arg 1 the default.
+void BM_DetectSequence(benchmark::State& state) {
+  const RecordedFrames& f = recorded_frames();
+  if (f.depth.empty()) {
+    state.SkipWithError(f.problem.c_str());
+    return;
+  }
+  auto det = std::make_unique<UMapDetector>();
+  UMapDetectorConfig cfg;
+  cfg.use_fast_measure = state.range(0) == 1;
+  if (!ok(det->init(cfg))) state.SkipWithError("init");
+  DetectionList out;
+  std::size_t i = 0, detections = 0, frames = 0;
+  const int stride = f.width * static_cast<int>(sizeof(std::uint16_t));
+  for (auto _ : state) {
+    const DepthView view{f.depth[i].data(), f.width, f.height, stride};
+    const Status st = det->detect(view, f.cam, f.poses[i], out);
+    benchmark::DoNotOptimize(st);
+    benchmark::DoNotOptimize(out.data());
+    detections += out.size();
+    ++frames;
+    i = i + 1 == f.depth.size() ? 0 : i + 1;
+  }
+  state.counters["frames"] = static_cast<double>(f.depth.size());
+  state.counters["detections_per_frame"] =
+      frames > 0 ? static_cast<double>(detections) / static_cast<double>(frames) : 0.0;
+  state.SetLabel(std::string(umap_histogram_fast_name()) +
+                 (cfg.use_fast_measure ? ", fast measure" : ", per-pixel search"));
+}
+BENCHMARK(BM_DetectSequence)
+    ->ArgName("fast_measure")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMicrosecond);
 
 // Refinement of the frame's detections against a map built from 10 integrations of the frame;
 // arg 1 adds a clean-history lookup (a second pass over the voxels of each inflated box).
@@ -139,4 +252,26 @@ BENCHMARK(BM_Refine)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// BENCHMARK_MAIN plus --sequence=DIR (taken out of argv before Google Benchmark parses it).
+int main(int argc, char** argv) {
+  if (const char* env = std::getenv("DYNAMAP_BENCH_SEQUENCE")) sequence_dir() = env;
+  int kept = 1;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strncmp(argv[i], "--sequence=", 11) == 0) {
+      sequence_dir() = argv[i] + 11;
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  argc = kept;
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  if (sequence_dir().empty()) {
+    std::fprintf(stderr,
+                 "bench_umap_detector: no recorded sequence (--sequence=DIR or "
+                 "DYNAMAP_BENCH_SEQUENCE): BM_DetectSequence is skipped\n");
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -123,6 +123,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(detector.max_depth_extent), X, "m", 0, kInf, kOpen, kOpen, "groups deeper than this are background (a wall at a grazing angle)"},
     {DYNAMAP_FIELD(detector.box_from_surface_points), X, "", 0, 1, kClosed, kClosed, "map-frame box from the mean surface points (false: original corner transform)"},
     {DYNAMAP_FIELD(detector.use_fast_histogram), X, "", 0, 1, kClosed, kClosed, "NEON/vectorised U-map histogram (false: scalar reference)"},
+    {DYNAMAP_FIELD(detector.use_fast_measure), X, "", 0, 1, kClosed, kClosed, "vectorisable height search and box sums (false: per-pixel reference loops)"},
     // Refiner.
     {DYNAMAP_FIELD(refiner.inflate), X, "", 1, 10, kClosed, kClosed, "raw box extents are grown by this before the map search"},
     {DYNAMAP_FIELD(refiner.floor_margin), X, "m", 0, kInf, kClosed, kOpen, "voxels below ground_height + this are floor"},

@@ -49,6 +49,51 @@ bool intrinsics_valid(const CameraIntrinsics& cam) noexcept {
          std::isfinite(cam.cy) && finite_positive(cam.depth_scale);
 }
 
+// Adds one row's in-band depths dd (d when raw_lo <= d <= raw_hi, else 0) of n pixels p[i] to
+// the column sums cs (dd), cn (1 per in-band pixel) and ct (the running cs: sum over rows of
+// the column sum so far, from which the column moment sum(v * dd) follows without a multiply;
+// see sum_band_depths_fast), and
+// returns the row's sum and first moment sum(i * dd). Branch-free, one unsigned compare per
+// pixel (d - lo wraps above span for d < lo), restrict pointers so that the compiler vectorises
+// it without run-time alias checks; the moment is summed in 32 bits per 16 pixels
+// (15 * 65535 * 16 < 2^32) and widened once per chunk.
+void add_band_row(const std::uint16_t* __restrict p, int n, std::uint16_t lo, std::uint16_t span,
+                  std::uint32_t* __restrict cs, std::uint32_t* __restrict cn,
+                  std::uint32_t* __restrict ct, std::uint32_t* row_sum,
+                  std::uint64_t* row_moment) noexcept {
+  constexpr int kChunk = 16;
+  std::uint32_t sum = 0;
+  std::uint64_t moment = 0;
+  int c = 0;
+  for (; c + kChunk <= n; c += kChunk) {
+    std::uint32_t chunk_sum = 0, chunk_moment = 0;
+    for (int i = 0; i < kChunk; ++i) {
+      const std::uint16_t d = p[c + i];
+      const std::uint16_t in = static_cast<std::uint16_t>(d - lo) <= span ? 0xFFFFu : 0u;
+      const std::uint16_t dd = d & in;
+      cs[c + i] += dd;
+      cn[c + i] += in & 1u;
+      ct[c + i] += cs[c + i];
+      chunk_sum += dd;
+      chunk_moment += static_cast<std::uint32_t>(dd) * static_cast<std::uint16_t>(i);
+    }
+    sum += chunk_sum;
+    moment += static_cast<std::uint64_t>(chunk_sum) * static_cast<std::uint32_t>(c) + chunk_moment;
+  }
+  for (; c < n; ++c) {
+    const std::uint16_t d = p[c];
+    const std::uint16_t in = static_cast<std::uint16_t>(d - lo) <= span ? 0xFFFFu : 0u;
+    const std::uint16_t dd = d & in;
+    cs[c] += dd;
+    cn[c] += in & 1u;
+    ct[c] += cs[c];
+    sum += dd;
+    moment += static_cast<std::uint64_t>(dd) * static_cast<std::uint32_t>(c);
+  }
+  *row_sum = sum;
+  *row_moment = moment;
+}
+
 // Axis-aligned bounds of the 8 corners of `b` after the rigid transform.
 Box3 transform_box(const Box3& b, const Pose& T) noexcept {
   Box3 r;
@@ -171,41 +216,60 @@ void UMapDetector::extract_segments(int width) noexcept {
   segment_count_ = 0;
   const int bins = binning_.bins;
   const int r = config_.smoothing_radius;
-  const int min_len = config_.min_segment_length;
   for (int b = 0; b < bins; ++b) {
     bin_first_segment_[static_cast<std::size_t>(b)] = static_cast<int>(segment_count_);
-    // Smoothed counts of this bin row: sum over bins [b-r, b+r] (max 9 * 480, fits uint16).
-    const int k0 = std::max(0, b - r);
-    const int k1 = std::min(bins - 1, b + r);
-    std::uint16_t* sum = row_sum_.data();
-    const std::uint16_t* first = counts_.data() + static_cast<std::ptrdiff_t>(k0) * kUMapStride;
-    for (int u = 0; u < width; ++u) sum[u] = first[u];
-    for (int k = k0 + 1; k <= k1; ++k) {
-      const std::uint16_t* row = counts_.data() + static_cast<std::ptrdiff_t>(k) * kUMapStride;
-      for (int u = 0; u < width; ++u) sum[u] = static_cast<std::uint16_t>(sum[u] + row[u]);
-    }
-    const std::uint16_t thr = thresholds_[static_cast<std::size_t>(b)];
-    int u = 0;
-    while (u < width) {
-      if (sum[u] < thr) {
-        ++u;
-        continue;
+    const std::uint16_t* sum = counts_.data() + static_cast<std::ptrdiff_t>(b) * kUMapStride;
+    if (r > 0) {
+      // Smoothed counts of this bin row: sum over bins [b-r, b+r] (max 9 * 480, fits uint16).
+      const int k0 = std::max(0, b - r);
+      const int k1 = std::min(bins - 1, b + r);
+      std::uint16_t* acc = row_sum_.data();
+      const std::uint16_t* first = counts_.data() + static_cast<std::ptrdiff_t>(k0) * kUMapStride;
+      for (int u = 0; u < width; ++u) acc[u] = first[u];
+      for (int k = k0 + 1; k <= k1; ++k) {
+        const std::uint16_t* row = counts_.data() + static_cast<std::ptrdiff_t>(k) * kUMapStride;
+        for (int u = 0; u < width; ++u) acc[u] = static_cast<std::uint16_t>(acc[u] + row[u]);
       }
-      const int start = u;
-      while (u < width && sum[u] >= thr) ++u;
-      if (u - start < min_len) continue;
-      if (segment_count_ >= kMaxUMapSegments) {
-        ++stats_.segments_dropped;
-        continue;
-      }
-      const auto idx = static_cast<std::int16_t>(segment_count_);
-      segments_[segment_count_++] =
-          Segment{static_cast<std::int16_t>(start), static_cast<std::int16_t>(u - 1),
-                  static_cast<std::int16_t>(b), idx};
+      sum = acc;
     }
+    scan_bin_row(sum, width, b);
   }
   bin_first_segment_[static_cast<std::size_t>(bins)] = static_cast<int>(segment_count_);
   stats_.segments = segment_count_;
+}
+
+void UMapDetector::scan_bin_row(const std::uint16_t* sum, int width, int b) noexcept {
+  // Runs of cells at or above the bin's threshold. Most cells are below it: 16 at a time are
+  // passed over when their maximum is (a loop the compiler vectorises).
+  constexpr int kStep = 16;
+  const std::uint16_t thr = thresholds_[static_cast<std::size_t>(b)];
+  const int min_len = config_.min_segment_length;
+  int u = 0;
+  while (u < width) {
+    if (u + kStep <= width) {
+      std::uint16_t m = 0;
+      for (int i = 0; i < kStep; ++i) m = std::max(m, sum[u + i]);
+      if (m < thr) {
+        u += kStep;
+        continue;
+      }
+    }
+    if (sum[u] < thr) {
+      ++u;
+      continue;
+    }
+    const int start = u;
+    while (u < width && sum[u] >= thr) ++u;
+    if (u - start < min_len) continue;
+    if (segment_count_ >= kMaxUMapSegments) {
+      ++stats_.segments_dropped;
+      continue;
+    }
+    const auto idx = static_cast<std::int16_t>(segment_count_);
+    segments_[segment_count_++] =
+        Segment{static_cast<std::int16_t>(start), static_cast<std::int16_t>(u - 1),
+                static_cast<std::int16_t>(b), idx};
+  }
 }
 
 int UMapDetector::find_root(int i) noexcept {
@@ -281,24 +345,23 @@ bool UMapDetector::measure_group(const Group& g, const DepthView& depth,
       1u, static_cast<std::uint32_t>(config_.band_factor * static_cast<float>(ext)));
   band.raw_hi = std::min<std::uint32_t>(65535u, band.raw_lo + width - 1u);
   if (!find_row_run(depth, &band)) return false;
-  sum_band_depths(depth, band);
+  if (config_.use_fast_measure) {
+    sum_band_depths_fast(depth, band);
+  } else {
+    sum_band_depths(depth, band);
+  }
   return fit_boxes(band, cam, T_map_camera, box_cam, box_map, ibox, near_depth);
 }
 
 bool UMapDetector::find_row_run(const DepthView& depth, PixelBand* band) noexcept {
-  const int u0 = band->u0, u1 = band->u1;
-  // In-band pixels per image row over the group's columns (all reads inside the image).
-  for (int v = 0; v < depth.height; ++v) {
-    const std::uint16_t* row = depth.row(v);
-    int n = 0;
-    for (int u = u0; u <= u1; ++u) {
-      const std::uint32_t d = row[u];
-      n += (d >= band->raw_lo && d <= band->raw_hi) ? 1 : 0;
-    }
-    row_hits_[static_cast<std::size_t>(v)] = static_cast<std::uint16_t>(n);
+  if (config_.use_fast_measure) {
+    count_row_hits_fast(depth, *band);
+  } else {
+    count_row_hits(depth, *band);
   }
-  const int need = std::max(
-      1, static_cast<int>(std::ceil(config_.row_fill_fraction * static_cast<float>(u1 - u0 + 1))));
+  const int need =
+      std::max(1, static_cast<int>(std::ceil(config_.row_fill_fraction *
+                                             static_cast<float>(band->u1 - band->u0 + 1))));
   // Longest run of hit rows, bridging gaps of up to max_row_gap rows.
   int best_start = -1, best_end = -1, run_start = -1, last_hit = -1;
   for (int v = 0; v < depth.height; ++v) {
@@ -316,14 +379,45 @@ bool UMapDetector::find_row_run(const DepthView& depth, PixelBand* band) noexcep
   return true;
 }
 
-void UMapDetector::sum_band_depths(const DepthView& depth, const PixelBand& band) noexcept {
-  // In-band depth sums per column and per row (and their image-coordinate moments), for the
-  // mean depths of fit_boxes().
-  for (int u = band.u0; u <= band.u1; ++u) {
-    col_depth_sum_[static_cast<std::size_t>(u)] = 0;
-    col_vdepth_sum_[static_cast<std::size_t>(u)] = 0;
-    col_count_[static_cast<std::size_t>(u)] = 0;
+void UMapDetector::count_row_hits(const DepthView& depth, const PixelBand& band) noexcept {
+  // Reference: in-band pixels per image row over the group's columns.
+  for (int v = 0; v < depth.height; ++v) {
+    const std::uint16_t* row = depth.row(v);
+    int n = 0;
+    for (int u = band.u0; u <= band.u1; ++u) {
+      const std::uint32_t d = row[u];
+      n += (d >= band.raw_lo && d <= band.raw_hi) ? 1 : 0;
+    }
+    row_hits_[static_cast<std::size_t>(v)] = static_cast<std::uint16_t>(n);
   }
+}
+
+void UMapDetector::count_row_hits_fast(const DepthView& depth, const PixelBand& band) noexcept {
+  // One unsigned compare per pixel: d - raw_lo wraps above the span for d < raw_lo.
+  const std::uint32_t lo = band.raw_lo, span = band.raw_hi - band.raw_lo;
+  const int w = band.u1 - band.u0 + 1;
+  for (int v = 0; v < depth.height; ++v) {
+    const std::uint16_t* p = depth.row(v) + band.u0;
+    std::uint32_t n = 0;
+    for (int i = 0; i < w; ++i) n += (static_cast<std::uint32_t>(p[i]) - lo <= span) ? 1u : 0u;
+    row_hits_[static_cast<std::size_t>(v)] = static_cast<std::uint16_t>(n);
+  }
+}
+
+void UMapDetector::clear_column_sums(const PixelBand& band) noexcept {
+  for (int u = band.u0; u <= band.u1; ++u) {
+    const auto ui = static_cast<std::size_t>(u);
+    col_depth_sum_[ui] = 0;
+    col_vdepth_sum_[ui] = 0;
+    col_vdepth_part_[ui] = 0;
+    col_count_[ui] = 0;
+  }
+}
+
+void UMapDetector::sum_band_depths(const DepthView& depth, const PixelBand& band) noexcept {
+  // Reference: in-band depth sums per column and per row (and their image-coordinate moments),
+  // for the mean depths of fit_boxes().
+  clear_column_sums(band);
   for (int v = band.v0; v <= band.v1; ++v) {
     const std::uint16_t* row = depth.row(v);
     std::uint32_t row_sum = 0;
@@ -335,12 +429,47 @@ void UMapDetector::sum_band_depths(const DepthView& depth, const PixelBand& band
       const auto ui = static_cast<std::size_t>(u);
       col_depth_sum_[ui] += dd;
       col_vdepth_sum_[ui] += static_cast<std::uint64_t>(dd) * static_cast<std::uint32_t>(v);
-      col_count_[ui] = static_cast<std::uint16_t>(col_count_[ui] + (in ? 1 : 0));
+      col_count_[ui] += in ? 1u : 0u;
       row_sum += dd;
       row_usum += static_cast<std::uint64_t>(dd) * static_cast<std::uint32_t>(u);
     }
     row_depth_sum_[static_cast<std::size_t>(v)] = row_sum;
     row_udepth_sum_[static_cast<std::size_t>(v)] = row_usum;
+  }
+}
+
+void UMapDetector::sum_band_depths_fast(const DepthView& depth, const PixelBand& band) noexcept {
+  // The reference's sums, exactly, with 32-bit work per pixel. Row moments are taken relative
+  // to u0. Column moments: with S(k) the column's sum over rows v0..k and T the sum of S(k)
+  // over the run, sum(v * d_v) = (v1 + 1) * S(v1) - T; T is kept in 32 bits for
+  // kVDepthFlushRows rows at a time (S <= 480 * 65535, times 128 < 2^32).
+  clear_column_sums(band);
+  // raw_lo <= raw_hi <= 65535: both and their difference fit 16 bits.
+  const auto lo = static_cast<std::uint16_t>(band.raw_lo);
+  const auto span = static_cast<std::uint16_t>(band.raw_hi - band.raw_lo);
+  const int w = band.u1 - band.u0 + 1;
+  const auto u0 = static_cast<std::size_t>(band.u0);
+  const auto u1 = static_cast<std::size_t>(band.u1);
+  int rows_in_part = 0;
+  for (int v = band.v0; v <= band.v1; ++v) {
+    std::uint32_t row_sum = 0;
+    std::uint64_t row_moment = 0;
+    add_band_row(depth.row(v) + u0, w, lo, span, col_depth_sum_.data() + u0, col_count_.data() + u0,
+                 col_vdepth_part_.data() + u0, &row_sum, &row_moment);
+    row_depth_sum_[static_cast<std::size_t>(v)] = row_sum;
+    row_udepth_sum_[static_cast<std::size_t>(v)] =
+        static_cast<std::uint64_t>(row_sum) * u0 + row_moment;
+    if (++rows_in_part == kVDepthFlushRows || v == band.v1) {
+      for (std::size_t u = u0; u <= u1; ++u) {
+        col_vdepth_sum_[u] += col_vdepth_part_[u];  // T so far
+        col_vdepth_part_[u] = 0;
+      }
+      rows_in_part = 0;
+    }
+  }
+  const auto rows_end = static_cast<std::uint64_t>(band.v1) + 1u;
+  for (std::size_t u = u0; u <= u1; ++u) {
+    col_vdepth_sum_[u] = rows_end * col_depth_sum_[u] - col_vdepth_sum_[u];
   }
 }
 
@@ -362,7 +491,7 @@ bool UMapDetector::fit_boxes(const PixelBand& band, const CameraIntrinsics& cam,
   float xs_min = big, xs_max = -big, ys_min = big, ys_max = -big, z_near = big, z_far = -big;
   int pu0 = band.u1, pu1 = band.u0;
   for (int u = band.u0; u <= band.u1; ++u) {
-    const std::uint16_t n = col_count_[static_cast<std::size_t>(u)];
+    const std::uint32_t n = col_count_[static_cast<std::size_t>(u)];
     if (n == 0) continue;
     const float z = static_cast<float>(col_depth_sum_[static_cast<std::size_t>(u)]) /
                     static_cast<float>(n) * cam.depth_scale;

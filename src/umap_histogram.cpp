@@ -133,6 +133,12 @@ Status umap_histogram_fast(const DepthView& depth, const UMapBinning& binning,
   detail::clear_rows(depth, binning, out);
 #if defined(DYNAMAP_HAVE_NEON)
   detail::umap_histogram_neon(depth, binning, out);
+#elif defined(DYNAMAP_HAVE_SSE2)
+  if (binning.shift >= 16) {
+    detail::umap_histogram_sse2(depth, binning, out);
+  } else {
+    detail::umap_histogram_chunked(depth, binning, out);  // bins nearly one raw unit wide
+  }
 #else
   detail::umap_histogram_chunked(depth, binning, out);
 #endif
@@ -142,6 +148,8 @@ Status umap_histogram_fast(const DepthView& depth, const UMapBinning& binning,
 const char* umap_histogram_fast_name() noexcept {
 #if defined(DYNAMAP_HAVE_NEON)
   return "neon";
+#elif defined(DYNAMAP_HAVE_SSE2)
+  return "sse2";
 #else
   return "host-chunked";
 #endif

@@ -453,14 +453,17 @@ TEST(Pipeline, DepthCheckSeesTheWallBeyondTheMapRange) {
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
 }
 
-// The fast U-map kernel (NEON on aarch64, the vectorised host loop elsewhere) and the scalar
-// reference give the same outputs, bit for bit, through the whole pipeline.
+// The fast U-map kernel (NEON on aarch64, SSE2 on x86-64) and the detector's fast pixel passes
+// give the same outputs as the scalar reference kernel and the per-pixel reference loops, bit for
+// bit, through the whole pipeline.
 TEST(Pipeline, FastAndScalarHistogramKernelsGiveIdenticalOutputs) {
   PipelineConfig cfg = small_camera_config();
   cfg.detector.use_fast_histogram = true;
+  cfg.detector.use_fast_measure = true;
   std::vector<float> fast, scalar;
   const std::uint64_t cf = run_walker_trace(cfg, fast, 45);
   cfg.detector.use_fast_histogram = false;
+  cfg.detector.use_fast_measure = false;
   const std::uint64_t cs = run_walker_trace(cfg, scalar, 45);
   EXPECT_EQ(cf, cs);
   ASSERT_EQ(fast.size(), scalar.size());

@@ -13,6 +13,7 @@
 //    face. The centre/size along the ray are NOT compared against the full object here.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -472,6 +473,116 @@ TEST(UMapDetector, BadConfigIsRefusedAndOldConfigKept) {
   scene.boxes = five_boxes();
   scene.wall_z = 6.5f;
   EXPECT_EQ(run(*det, test::render_depth(scene, cam), cam).size(), 5u);
+}
+
+// The fast height search and box sums (use_fast_measure, the default) against the per-pixel
+// reference loops: same detections bit for bit and same counters.
+void expect_same_as_reference(const test::SyntheticImage& img, const CameraIntrinsics& cam,
+                              const Pose& pose, UMapDetectorConfig cfg, std::size_t* found) {
+  cfg.use_fast_measure = true;
+  auto fast = make_detector(cfg);
+  cfg.use_fast_measure = false;
+  auto ref = make_detector(cfg);
+  DetectionList a, b;
+  ASSERT_EQ(fast->detect(img.view(), cam, pose, a), Status::kOk);
+  ASSERT_EQ(ref->detect(img.view(), cam, pose, b), Status::kOk);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].box.min, b[i].box.min) << i;
+    EXPECT_EQ(a[i].box.max, b[i].box.max) << i;
+    EXPECT_EQ(a[i].raw_box.min, b[i].raw_box.min) << i;
+    EXPECT_EQ(a[i].raw_box.max, b[i].raw_box.max) << i;
+    EXPECT_EQ(a[i].image_box.u0, b[i].image_box.u0) << i;
+    EXPECT_EQ(a[i].image_box.v0, b[i].image_box.v0) << i;
+    EXPECT_EQ(a[i].image_box.u1, b[i].image_box.u1) << i;
+    EXPECT_EQ(a[i].image_box.v1, b[i].image_box.v1) << i;
+    EXPECT_EQ(a[i].near_depth, b[i].near_depth) << i;
+  }
+  const UMapDetectorStats& sa = fast->last_stats();
+  const UMapDetectorStats& sb = ref->last_stats();
+  EXPECT_EQ(sa.segments, sb.segments);
+  EXPECT_EQ(sa.groups, sb.groups);
+  EXPECT_EQ(sa.rejected_area, sb.rejected_area);
+  EXPECT_EQ(sa.rejected_size, sb.rejected_size);
+  EXPECT_EQ(sa.rejected_height, sb.rejected_height);
+  EXPECT_EQ(sa.candidates_dropped, sb.candidates_dropped);
+  EXPECT_EQ(sa.detections_dropped, sb.detections_dropped);
+  *found += a.size();
+}
+
+TEST(UMapDetector, FastMeasureMatchesReferenceOnRandomFrames) {
+  // Random boxes, walls, floors, noise and dropouts, odd widths (chunk tails), pitched and
+  // rolled poses, with the default limits and with limits wide enough that every group is
+  // measured and output (walls and floors included: long, wide runs of pixels).
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> uni(0.f, 1.f);
+  std::normal_distribution<float> gauss(0.f, 1.f);
+  std::size_t found_default = 0, found_wide = 0;
+  for (int frame = 0; frame < 24; ++frame) {
+    const int widths[] = {640, 637, 333, 97};
+    CameraIntrinsics cam = camera(widths[frame % 4], frame % 3 == 0 ? 480 : 211);
+    cam.cx = 0.5f * static_cast<float>(cam.width);
+    cam.cy = 0.5f * static_cast<float>(cam.height);
+    SyntheticScene scene;
+    const int n = 1 + static_cast<int>(rng() % 6);
+    for (int k = 0; k < n; ++k) {
+      const float z = 0.5f + 6.f * uni(rng), x = -3.f + 6.f * uni(rng);
+      const float w = 0.1f + 1.2f * uni(rng), h = 0.3f + 2.f * uni(rng);
+      scene.boxes.push_back(box_at(x, x + w, 1.f - h, 1.f, z, z + 0.2f + uni(rng)));
+    }
+    scene.wall_z = frame % 5 == 0 ? 0.f : 3.f + 6.f * uni(rng);
+    scene.floor_y = frame % 2 == 0 ? 1.f : 0.f;
+    auto img = test::render_depth(scene, cam);
+    for (std::uint16_t& p : img.pixels) {
+      if (p == 0) continue;
+      if (uni(rng) < 0.05f) {
+        p = 0;
+        continue;
+      }
+      const float z = static_cast<float>(p) * cam.depth_scale;
+      p = static_cast<std::uint16_t>(
+          std::lround(std::max(0.f, z + 0.003f * z * z * gauss(rng)) / cam.depth_scale));
+    }
+    const Eigen::Quaternionf tilt(
+        Eigen::AngleAxisf(0.4f * (uni(rng) - 0.5f), Eigen::Vector3f::UnitY()) *
+        Eigen::AngleAxisf(0.2f * (uni(rng) - 0.5f), Eigen::Vector3f::UnitX()));
+    Pose pose = kPose;
+    pose.rotation = (tilt * kPose.rotation).normalized();
+    UMapDetectorConfig cfg;
+    cfg.smoothing_radius = static_cast<int>(rng() % 2);
+    expect_same_as_reference(img, cam, pose, cfg, &found_default);
+    UMapDetectorConfig wide = cfg;
+    wide.band_factor = 1.f + 3.f * uni(rng);
+    wide.max_width_fraction = 1.f;
+    wide.max_width = wide.max_height = wide.max_depth_extent = 1000.f;
+    wide.min_run_rows = 1;
+    wide.row_fill_fraction = 0.f;
+    expect_same_as_reference(img, cam, pose, wide, &found_wide);
+  }
+  EXPECT_GT(found_default, 24u);
+  EXPECT_GT(found_wide, found_default);
+}
+
+TEST(UMapDetector, FastMeasureMatchesReferenceAtLargeRawDepths) {
+  // 0.1 mm per unit: a wall at 6.5 m is raw 65000 over all 480 rows, so the 32-bit partial
+  // column sums of the fast path are near their limit (flushed every 128 rows) and the band
+  // reaches raw 65535.
+  CameraIntrinsics cam = camera();
+  cam.depth_scale = 0.0001f;
+  UMapDetectorConfig cfg;
+  cfg.d_min = 0.5f;
+  cfg.d_max = 6.5535f;
+  cfg.band_factor = 4.f;
+  cfg.max_width_fraction = 1.f;
+  cfg.max_width = cfg.max_height = cfg.max_depth_extent = 1000.f;
+  std::size_t found = 0;
+  for (float wall : {6.5f, 6.5535f, 3.f}) {
+    SyntheticScene scene;
+    scene.boxes = {box_at(-0.4f, 0.4f, -2.f, 1.f, wall - 0.9f, wall - 0.5f)};
+    scene.wall_z = wall;
+    expect_same_as_reference(test::render_depth(scene, cam), cam, kPose, cfg, &found);
+  }
+  EXPECT_GE(found, 3u);
 }
 
 TEST(UMapDetector, ZeroAllocationsPerFrame) {

@@ -1,6 +1,6 @@
 // U-map histogram kernels: the binning formula, the scalar reference against an independent
-// count, and the fast path (NEON on aarch64) bit-identical to the reference on random images,
-// edge values and odd widths.
+// count, and the fast path (NEON on aarch64, SSE2 on x86-64) bit-identical to the reference on
+// random images, edge values and odd widths.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -137,7 +137,11 @@ TEST(UMapHistogram, FastIdenticalOnRandomImagesAndOddWidths) {
   std::mt19937 rng(12345);
   const UMapBinning binnings[] = {
       binning_or_die(0.01f, 8.f, 0.001f, 120), binning_or_die(0.3f, 5.f, 1.f / 5000.f, 128),
-      binning_or_die(0.f, 65.535f, 0.001f, 1), binning_or_die(1.f, 1.2f, 0.001f, 33)};
+      binning_or_die(0.f, 65.535f, 0.001f, 1), binning_or_die(1.f, 1.2f, 0.001f, 33),
+      // shift 15 (the host fast path's 32-bit fallback) and exactly 16 (SSE2, no final shift)
+      binning_or_die(0.001f, 0.128f, 0.001f, 128), binning_or_die(0.001f, 0.130f, 0.001f, 128)};
+  EXPECT_EQ(binnings[4].shift, 15);
+  EXPECT_EQ(binnings[5].shift, 16);
   for (int width : {1, 2, 3, 7, 8, 9, 15, 16, 17, 63, 64, 65, 71, 127, 129, 639, 640}) {
     const int height = 1 + static_cast<int>(rng() % 19);
     const int stride = width + static_cast<int>(rng() % 3);  // padded rows too
@@ -154,7 +158,8 @@ TEST(UMapHistogram, FastIdenticalOnRandomImagesAndOddWidths) {
 TEST(UMapHistogram, FastIdenticalOnEdgeValues) {
   for (const UMapBinning& b :
        {binning_or_die(0.01f, 8.f, 0.001f, 120), binning_or_die(0.f, 65.535f, 0.001f, 128),
-        binning_or_die(0.3f, 5.f, 1.f / 5000.f, 64)}) {
+        binning_or_die(0.3f, 5.f, 1.f / 5000.f, 64), binning_or_die(0.001f, 0.128f, 0.001f, 128),
+        binning_or_die(0.001f, 0.130f, 0.001f, 128)}) {
     std::vector<std::uint16_t> values = {0, 1, 2, 65534, 65535, b.raw_min, b.raw_max};
     if (b.raw_min > 0) values.push_back(static_cast<std::uint16_t>(b.raw_min - 1));
     if (b.raw_max < 65535) values.push_back(static_cast<std::uint16_t>(b.raw_max + 1));

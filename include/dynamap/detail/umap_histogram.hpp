@@ -2,8 +2,10 @@
 // is not a stable API. U-map histogram kernel: for every image column u, how many of its pixels
 // fall in each depth bin.
 // Two implementations behind one contract: a scalar reference and a fast path (NEON on aarch64
-// when DYNAMAP_HAVE_NEON, otherwise a chunked host loop the compiler vectorises). Both use the
-// same integer bin formula, so their outputs are identical bit for bit on every input.
+// when DYNAMAP_HAVE_NEON; SSE2 on x86-64 when DYNAMAP_HAVE_SSE2 and the binning's shift is at
+// least 16, i.e. bins wider than about two raw units; otherwise a chunked host loop the compiler
+// vectorises). All use the same integer bin formula, so their outputs are identical bit for bit
+// on every input.
 #pragma once
 
 #include <cstdint>
@@ -78,11 +80,12 @@ struct UMapBuffer {
                                            const UMapBuffer& out) noexcept;
 
 /// Fast path with the same contract and bit-identical output (NEON on aarch64 builds with
-/// DYNAMAP_HAVE_NEON; a vectorisable chunked loop elsewhere).
+/// DYNAMAP_HAVE_NEON; SSE2 on x86-64 for shift >= 16; a vectorisable chunked loop elsewhere).
 [[nodiscard]] Status umap_histogram_fast(const DepthView& depth, const UMapBinning& binning,
                                          const UMapBuffer& out) noexcept;
 
-/// Name of the implementation behind umap_histogram_fast ("neon" or "host-chunked").
+/// Name of the implementation behind umap_histogram_fast ("neon", "sse2" or "host-chunked";
+/// "sse2" falls back to the chunked loop for binnings with shift < 16).
 const char* umap_histogram_fast_name() noexcept;
 
 namespace detail {
@@ -92,6 +95,11 @@ Status check_umap_args(const DepthView& depth, const UMapBinning& binning,
 #if defined(DYNAMAP_HAVE_NEON)
 /// NEON kernel body (platform/neon); arguments already checked.
 void umap_histogram_neon(const DepthView& depth, const UMapBinning& binning,
+                         const UMapBuffer& out) noexcept;
+#endif
+#if defined(DYNAMAP_HAVE_SSE2)
+/// SSE2 kernel body (platform/x86); arguments already checked and binning.shift >= 16.
+void umap_histogram_sse2(const DepthView& depth, const UMapBinning& binning,
                          const UMapBuffer& out) noexcept;
 #endif
 }  // namespace detail
