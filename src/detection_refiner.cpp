@@ -28,6 +28,8 @@ constexpr float kEmptyShare = 0.01f;
 // The column profile is averaged over this width (m): a few centimetres of arm or flying pixels
 // between two people should not hide the minimum, nor one thin column make one.
 constexpr float kProfileSmoothing = 0.05f;
+// Rows read for a detection's split decision (its parts are measured from every row).
+constexpr int kProfileRows = 48;
 // A part whose bottom is this close above the floor cut (m) stands on the floor.
 constexpr float kFloorContact = 0.1f;
 // A part's rows must hold in-band pixels in this share of its columns (the detector's row fill).
@@ -120,7 +122,12 @@ bool DetectionRefiner::region_of(const Detection& d, const DepthView& depth,
   if (!(hi < 65535.f)) return false;
   r->lo = static_cast<std::uint32_t>(std::max(lo, 1.f));
   r->hi = static_cast<std::uint32_t>(hi);
-  return r->hi > r->lo;
+  // Most detections are one person: neither wide enough at their farthest depth nor deep
+  // enough to hold the gap, so their pixels are not read at all.
+  const float cols = static_cast<float>(r->u1 - r->u0 + 1);
+  const bool wide = cols * (far + kBandMargin) / cam.fx > config_.split_width;
+  const bool deep = far - d.near_depth >= config_.split_depth_gap;
+  return r->hi > r->lo && (wide || deep);
 }
 
 void DetectionRefiner::floor_test(const CameraIntrinsics& cam, const Pose& T_map_camera,
@@ -152,7 +159,10 @@ void DetectionRefiner::profile(const DepthView& depth, const CameraIntrinsics& c
   region_depth_sum_ = 0;
   const auto cell = std::max<std::uint32_t>(
       1u, static_cast<std::uint32_t>(std::lround(kSplitDepthCell / cam.depth_scale)));
-  for (int v = r.v0; v <= r.v1; ++v) {
+  // Evenly spaced rows, at most kProfileRows of them: the shares and ratios the tests use do
+  // not need every row, and wide background boxes (walls, tables) are read on every frame.
+  const int step = std::max(1, (r.v1 - r.v0 + kProfileRows) / kProfileRows);
+  for (int v = r.v0; v <= r.v1; v += step) {
     const std::uint16_t* row = depth.row(v);
     for (int u = r.u0; u <= r.u1; ++u) {
       const std::uint32_t d = row[u];
@@ -251,18 +261,18 @@ bool DetectionRefiner::split_along(const PixelRegion& r, const CameraIntrinsics&
   return false;
 }
 
-bool DetectionRefiner::measure(const DepthView& depth, const CameraIntrinsics& cam,
-                               const Pose& T_map_camera, const PixelRegion& r,
-                               Detection* out) noexcept {
-  // As the detector measures its boxes (umap_detector.md): every column (row) of the part at the
-  // mean map-frame point of its in-band pixels, so flying pixels do not stretch the box.
+bool DetectionRefiner::sum_part(const DepthView& depth, const PixelRegion& r, int* pu0,
+                                int* pu1) noexcept {
+  // Per-column and per-row pixel counts, depth sums and moments of the part's pixels; the
+  // columns [pu0, pu1] that hold any.
   for (int u = r.u0; u <= r.u1; ++u) {
     const auto ui = static_cast<std::size_t>(u);
     col_count_[ui] = 0;
     col_depth_sum_[ui] = 0;
     col_vdepth_sum_[ui] = 0;
   }
-  int pu0 = r.u1, pu1 = r.u0;
+  *pu0 = r.u1;
+  *pu1 = r.u0;
   for (int v = r.v0; v <= r.v1; ++v) {
     const std::uint16_t* row = depth.row(v);
     std::uint32_t n = 0, sum = 0;
@@ -277,15 +287,24 @@ bool DetectionRefiner::measure(const DepthView& depth, const CameraIntrinsics& c
       ++n;
       sum += d;
       usum += static_cast<std::uint64_t>(d) * static_cast<std::uint32_t>(u);
-      pu0 = std::min(pu0, u);
-      pu1 = std::max(pu1, u);
+      *pu0 = std::min(*pu0, u);
+      *pu1 = std::max(*pu1, u);
     }
     const auto vi = static_cast<std::size_t>(v);
     row_count_[vi] = static_cast<std::uint16_t>(n);
     row_depth_sum_[vi] = sum;
     row_udepth_sum_[vi] = usum;
   }
-  if (pu1 < pu0) return false;
+  return *pu1 >= *pu0;
+}
+
+bool DetectionRefiner::measure(const DepthView& depth, const CameraIntrinsics& cam,
+                               const Pose& T_map_camera, const PixelRegion& r,
+                               Detection* out) noexcept {
+  // As the detector measures its boxes (umap_detector.md): every column (row) of the part at the
+  // mean map-frame point of its in-band pixels, so flying pixels do not stretch the box.
+  int pu0 = 0, pu1 = -1;
+  if (!sum_part(depth, r, &pu0, &pu1)) return false;
   const float big = std::numeric_limits<float>::max();
   const Eigen::Matrix3f R = T_map_camera.rotation.toRotationMatrix();
   const Eigen::Vector3f& t = T_map_camera.translation;

@@ -82,6 +82,7 @@ class DetectionRefiner {
                     PixelRegion* b) noexcept;
   bool split_along(const PixelRegion& r, const CameraIntrinsics& cam, PixelRegion* a,
                    PixelRegion* b) const noexcept;
+  bool sum_part(const DepthView& depth, const PixelRegion& r, int* pu0, int* pu1) noexcept;
   bool measure(const DepthView& depth, const CameraIntrinsics& cam, const Pose& T_map_camera,
                const PixelRegion& r, Detection* out) noexcept;
 
