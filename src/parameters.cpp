@@ -181,6 +181,11 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(fragments.join_fragments), X, "", 0, 1, kClosed, kClosed, "join the detector's fragments of one obstacle"},
     {DYNAMAP_FIELD(fragments.max_gap), X, "m", -kInf, 1, kOpen, kClosed, "largest top-view gap between joined boxes (negative: must overlap)"},
     {DYNAMAP_FIELD(fragments.max_footprint), X, "m", 0, 5, kOpen, kClosed, "largest horizontal side of a joined box"},
+    {DYNAMAP_FIELD(fragments.split_groups), X, "", 0, 1, kClosed, kClosed, "split detections that hold several people (side by side, one behind the other)"},
+    {DYNAMAP_FIELD(fragments.split_width), X, "m", 0.1, 5, kClosed, kClosed, "only detections wider than this across the view are split side by side"},
+    {DYNAMAP_FIELD(fragments.split_min_part), X, "m", 0.05, 2, kClosed, kClosed, "each side of a split across the view is at least this wide"},
+    {DYNAMAP_FIELD(fragments.split_dip), X, "", 0, 1, kClosed, kClosed, "split where the pixels per column fall to this share of the lower peak beside"},
+    {DYNAMAP_FIELD(fragments.split_depth_gap), X, "m", 0.1, 2, kClosed, kClosed, "an empty stretch of depth this long along the ray splits near from far"},
     // Ever-free grid (ever_free_grid.hpp): space the camera has observed free.
     {DYNAMAP_FIELD(ever_free.enabled), X, "", 0, 1, kClosed, kClosed, "keep the ever-free grid and use it as dynamic evidence"},
     {DYNAMAP_FIELD(ever_free.resolution), X, "m", 0.05, 1, kClosed, kClosed, "cell edge"},

@@ -43,7 +43,7 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   const float floor_top = config.ground_height + config.refiner.floor_margin;
   Status s = map_.init(config.map);
   if (ok(s)) s = detector_.init(config.detector);
-  if (ok(s)) s = fragments_.init(config.fragments);
+  if (ok(s)) s = fragments_.init(config.fragments, floor_top);
   if (ok(s)) s = refiner_.init(config.refiner, config.ground_height);
   if (ok(s)) s = tracker_.init(config.tracker, config.camera.width, config.camera.height);
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
@@ -167,7 +167,10 @@ void Pipeline::detect(const Frame& frame, FrameWork& work) noexcept {
     detections_.clear();
   }
   counters_.detections_dropped += detector_.last_stats().detections_dropped;
+  // Fragments of one person joined first; what is still wider than a person is a group.
   (void)fragments_.join(detections_);
+  counters_.groups_split +=
+      fragments_.split(frame.depth, config_.camera, frame.T_map_camera, detections_);
   // Where the camera has seen free space: dynamic evidence for each detection (tracker.md).
   if (ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera))) {
     ever_free_.annotate(detections_.data(), detections_.size());

@@ -387,6 +387,78 @@ TEST(Pipeline, SameSequenceGivesBitIdenticalOutputs) {
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
 }
 
+// Two people walking side by side, arms touching (one detector group), and a third walking
+// behind them: the refiner splits the group (fragments.split_groups) on every frame, without a
+// heap allocation and bit-identically on a rerun.
+struct GroupScenario {
+  test::WorldScene scene;
+  Pose camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.2f));
+  std::vector<std::vector<std::uint16_t>> images;
+  std::vector<Frame> frames;
+  GroupScenario(const CameraIntrinsics& cam, int n) {
+    images.resize(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {  // the renderer allocates: render first
+      const float y = -0.6f + 0.02f * static_cast<float>(i);
+      scene.boxes.clear();
+      for (const auto& person :
+           {test::person_shape_at(3.f, y - 0.25f), test::person_shape_at(3.f, y + 0.25f),
+            test::person_shape_at(4.5f, -y)}) {
+        scene.boxes.insert(scene.boxes.end(), person.begin(), person.end());
+      }
+      Frame f;
+      f.stamp = static_cast<Stamp>(i + 1) * kFrameNs;
+      f.T_map_camera = camera;
+      f.depth = test::render(scene, cam, camera, images[static_cast<std::size_t>(i)]);
+      frames.push_back(f);
+    }
+  }
+};
+
+std::vector<float> run_groups(const PipelineConfig& cfg, const GroupScenario& s,
+                              std::uint64_t* splits, std::size_t* allocations) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  EXPECT_EQ(p->init(cfg), Status::kOk);
+  std::vector<float> trace;
+  trace.reserve(100000);
+  {
+    test::AllocationGuard guard;
+    for (const Frame& f : s.frames) {
+      if (!ok(p->process(f, *out))) break;
+      for (std::size_t k = 0; k < out->num_obstacles; ++k) {
+        const TrackedObstacle& o = out->obstacles[k];
+        trace.insert(trace.end(), {static_cast<float>(o.id), o.box.min.x(), o.box.min.y(),
+                                   o.box.max.y(), o.velocity.y()});
+      }
+    }
+    *allocations = guard.allocations();
+  }
+  *splits = p->counters().groups_split;
+  EXPECT_EQ(p->counters().frames_processed, s.frames.size());
+  return trace;
+}
+
+TEST(Pipeline, GroupsAreSplitWithoutAllocationAndBitIdentically) {
+  const PipelineConfig cfg = small_camera_config();
+  const GroupScenario s(cfg.camera, 40);
+  std::uint64_t splits_a = 0, splits_b = 0;
+  std::size_t alloc_a = 0, alloc_b = 0;
+  const std::vector<float> a = run_groups(cfg, s, &splits_a, &alloc_a);
+  const std::vector<float> b = run_groups(cfg, s, &splits_b, &alloc_b);
+  EXPECT_EQ(alloc_a, 0u);
+  EXPECT_EQ(alloc_b, 0u);
+  EXPECT_GE(splits_a, 40u);  // the pair, every frame
+  EXPECT_EQ(splits_a, splits_b);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
+  PipelineConfig off = cfg;
+  off.fragments.split_groups = false;
+  std::uint64_t splits_off = 0;
+  std::size_t alloc_off = 0;
+  (void)run_groups(off, s, &splits_off, &alloc_off);
+  EXPECT_EQ(splits_off, 0u);
+}
+
 // The frame reaches the predictor (predictor.depth_check): with the map's range cut to 3.5 m the
 // wall at 4.5 m is never in the map, so the walker's right turns (towards the wall) look free
 // to the map alone; the frame blocks them, and the walker's own pixels do not block its

@@ -41,6 +41,7 @@ struct PipelineCounters {
   std::uint64_t rays_dropped = 0;        ///< rays over the occupancy work cap
   std::uint64_t blocks_evicted = 0;      ///< map blocks evicted because the pool was full
   std::uint64_t detections_dropped = 0;  ///< detections over the per-frame capacity
+  std::uint64_t groups_split = 0;        ///< detections split into people (fragments.split_groups)
   std::uint64_t tracks_refused = 0;      ///< tracks not started because the tracker was full
   std::uint64_t budget_overruns = 0;     ///< frames over the whole-frame budget
   std::uint64_t stage_overruns = 0;      ///< stage runs over their own budget (all stages)

@@ -79,4 +79,28 @@ inline Box3 person_at(float x, float y) {
   return Box3::from_center_size(Eigen::Vector3f(x, y, 0.85f), Eigen::Vector3f(0.5f, 0.5f, 1.7f));
 }
 
+/// A person shaped from boxes, facing the camera along x, centred at (x, y): two legs, a torso
+/// with an arm on each side (0.54 m across the arms) and a head, 1.72 m tall. Between two such
+/// people side by side the depth image holds only arms: the density minimum the refiner splits
+/// at. `hole` cuts a 0.1 m slot through the torso's middle (z 1.0 to 1.3 m).
+inline std::vector<Box3> person_shape_at(float x, float y, bool hole = false) {
+  const auto box = [&](float y0, float y1, float z0, float z1, float depth) {
+    return Box3{Eigen::Vector3f(x - 0.5f * depth, y + y0, z0),
+                Eigen::Vector3f(x + 0.5f * depth, y + y1, z1)};
+  };
+  std::vector<Box3> parts = {
+      box(-0.175f, -0.025f, 0.f, 0.85f, 0.2f),                                        // legs
+      box(0.025f, 0.175f, 0.f, 0.85f, 0.2f), box(-0.27f, -0.2f, 0.75f, 1.4f, 0.25f),  // arms
+      box(0.2f, 0.27f, 0.75f, 1.4f, 0.25f), box(-0.1f, 0.1f, 1.45f, 1.72f, 0.2f)};    // head
+  if (hole) {
+    parts.push_back(box(-0.2f, -0.05f, 0.85f, 1.45f, 0.25f));
+    parts.push_back(box(0.05f, 0.2f, 0.85f, 1.45f, 0.25f));
+    parts.push_back(box(-0.05f, 0.05f, 0.85f, 1.0f, 0.25f));
+    parts.push_back(box(-0.05f, 0.05f, 1.3f, 1.45f, 0.25f));
+  } else {
+    parts.push_back(box(-0.2f, 0.2f, 0.85f, 1.45f, 0.25f));  // torso
+  }
+  return parts;
+}
+
 }  // namespace dynamap::test
