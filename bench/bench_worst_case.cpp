@@ -72,13 +72,7 @@ struct Named {
 /// The largest caps validation accepts: every work cap at its bound, the longest horizon the
 /// prediction bound admits.
 PipelineConfig largest_caps() {
-  PipelineConfig c;
-  c.map.pixel_stride = 1;
-  c.map.max_rays_per_frame = kMaxRaysPerFrame;
-  c.map.max_voxel_visits_per_frame = kMaxPipelineVoxelVisitsPerFrame;
-  c.detector.max_detections = kMaxDetections;
-  c.refiner.max_voxels_per_box = kMaxRefinerVoxelsPerFrame / (2 * kMaxDetections);
-  c.cleaner.max_voxels_per_frame = kMaxCleanerVoxelsPerFrame;
+  PipelineConfig c = largest_work_caps();
   for (float h = c.predictor.paths.horizon_distance;; h += 0.5f) {
     PipelineConfig t = c;
     t.predictor.paths.horizon_distance = h;

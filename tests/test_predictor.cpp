@@ -1294,6 +1294,14 @@ CameraIntrinsics far_camera() {
   return c;
 }
 
+// The end wall of a corridor 7 m ahead of the origin, beyond the map's range.
+test::WorldScene corridor_end_wall() {
+  test::WorldScene scene;
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(7.0f, -1.6f, 0.0f), Eigen::Vector3f(7.2f, 1.6f, 2.5f)});
+  return scene;
+}
+
 TEST(MarkovPredictorFarField, CorridorEndWallSeenOnlyEarlierMakesTheChoiceTurnBeforeIt) {
   // The end wall of a corridor 7 m from the camera, beyond the map's range: seen in one frame,
   // then 10 frames looking back the other way. The map holds nothing. A walker at x = 5 walks
@@ -1301,9 +1309,7 @@ TEST(MarkovPredictorFarField, CorridorEndWallSeenOnlyEarlierMakesTheChoiceTurnBe
   const CameraIntrinsics cam = far_camera();
   auto layer = std::make_unique<FarFieldLayer>();
   ASSERT_EQ(layer->init(FarFieldConfig{}, 0.0f), Status::kOk);
-  test::WorldScene scene;
-  scene.boxes.push_back(
-      Box3{Eigen::Vector3f(7.0f, -1.6f, 0.0f), Eigen::Vector3f(7.2f, 1.6f, 2.5f)});
+  const test::WorldScene scene = corridor_end_wall();
   std::vector<std::uint16_t> pixels;
   const Pose ahead = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), 0.0f);
   const Pose back = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), kPiF);
@@ -1374,9 +1380,7 @@ TEST(MarkovPredictorFarField, ZeroAllocationsWithTheLayer) {
   const CameraIntrinsics cam = far_camera();
   auto layer = std::make_unique<FarFieldLayer>();
   ASSERT_EQ(layer->init(FarFieldConfig{}, 0.0f), Status::kOk);
-  test::WorldScene scene;
-  scene.boxes.push_back(
-      Box3{Eigen::Vector3f(7.0f, -1.6f, 0.0f), Eigen::Vector3f(7.2f, 1.6f, 2.5f)});
+  const test::WorldScene scene = corridor_end_wall();
   std::vector<std::uint16_t> pixels;
   const Pose ahead = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), 0.0f);
   const DepthView view = test::render(scene, cam, ahead, pixels);

@@ -63,18 +63,6 @@ Work run_and_check(const PipelineConfig& cfg, WorstCase kind, unsigned frames) {
   return m;
 }
 
-// The largest caps validation accepts (what bench_worst_case times too).
-PipelineConfig largest_caps() {
-  PipelineConfig c;
-  c.map.pixel_stride = 1;
-  c.map.max_rays_per_frame = kMaxRaysPerFrame;
-  c.map.max_voxel_visits_per_frame = kMaxPipelineVoxelVisitsPerFrame;
-  c.detector.max_detections = kMaxDetections;
-  c.refiner.max_voxels_per_box = kMaxRefinerVoxelsPerFrame / (2 * kMaxDetections);
-  c.cleaner.max_voxels_per_frame = kMaxCleanerVoxelsPerFrame;
-  return c;
-}
-
 TEST(WorstCaseFrames, DefaultsStayWithinTheDerivedBoundAndExerciseEveryStage) {
   const PipelineConfig cfg;
   const Work range = run_and_check(cfg, WorstCase::kMaxRange, 3);
@@ -90,7 +78,7 @@ TEST(WorstCaseFrames, DefaultsStayWithinTheDerivedBoundAndExerciseEveryStage) {
 }
 
 TEST(WorstCaseFrames, LargestAcceptedCapsStayWithinTheDerivedBound) {
-  const PipelineConfig cfg = largest_caps();
+  const PipelineConfig cfg = largest_work_caps();
   ASSERT_TRUE(validate(cfg).ok());
   const Work range = run_and_check(cfg, WorstCase::kMaxRange, 3);
   EXPECT_GT(range.rays, 0u);

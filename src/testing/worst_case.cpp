@@ -53,4 +53,15 @@ DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, flo
   return DepthView{pixels, w, h, w * static_cast<int>(sizeof(std::uint16_t))};
 }
 
+PipelineConfig largest_work_caps() noexcept {
+  PipelineConfig c;
+  c.map.pixel_stride = 1;
+  c.map.max_rays_per_frame = kMaxRaysPerFrame;
+  c.map.max_voxel_visits_per_frame = kMaxPipelineVoxelVisitsPerFrame;
+  c.detector.max_detections = kMaxDetections;
+  c.refiner.max_voxels_per_box = kMaxRefinerVoxelsPerFrame / (2 * kMaxDetections);
+  c.cleaner.max_voxels_per_frame = kMaxCleanerVoxelsPerFrame;
+  return c;
+}
+
 }  // namespace dynamap

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "dynamap/pipeline_config.hpp"
 #include "dynamap/types.hpp"
 
 namespace dynamap {
@@ -28,5 +29,10 @@ inline constexpr int kMinBarPixels = 21;
 DepthView make_worst_case_depth(WorstCase kind, const CameraIntrinsics& cam, float max_depth_m,
                                 std::size_t obstacles, std::uint16_t* pixels,
                                 unsigned phase = 0) noexcept;
+
+/// The defaults with every per-frame work cap at the largest value validation accepts (rays,
+/// voxel visits, detections, refiner and cleaner voxels): the configuration whose worst frame is
+/// the longest the pipeline can be asked to do.
+PipelineConfig largest_work_caps() noexcept;
 
 }  // namespace dynamap
