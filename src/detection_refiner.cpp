@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "pixel_footprint.hpp"
+
 namespace dynamap {
 
 namespace {
@@ -317,12 +319,7 @@ bool DetectionRefiner::measure(const DepthView& depth, const CameraIntrinsics& c
                     cam.depth_scale;
     const float v_mean = static_cast<float>(static_cast<double>(col_vdepth_sum_[ui]) /
                                             static_cast<double>(col_depth_sum_[ui]));
-    const float ut = static_cast<float>(u) - 0.5f - cam.cx;
-    const Eigen::Vector3f base = R * Eigen::Vector3f(0.f, (v_mean - cam.cy) * z / cam.fy, z) + t;
-    const Eigen::Vector3f step = R.col(0) * (z / cam.fx);
-    const Eigen::Vector3f left = base + step * ut, right = base + step * (ut + 1.f);
-    mn = mn.cwiseMin(left).cwiseMin(right);
-    mx = mx.cwiseMax(left).cwiseMax(right);
+    detail::grow_by_column(cam, R, t, u, z, v_mean, mn, mx);
     z_near = std::min(z_near, z);
   }
   const auto min_row =
@@ -335,12 +332,7 @@ bool DetectionRefiner::measure(const DepthView& depth, const CameraIntrinsics& c
                     cam.depth_scale;
     const float u_mean = static_cast<float>(static_cast<double>(row_udepth_sum_[vi]) /
                                             static_cast<double>(row_depth_sum_[vi]));
-    const float vt = static_cast<float>(v) - 0.5f - cam.cy;
-    const Eigen::Vector3f base = R * Eigen::Vector3f((u_mean - cam.cx) * z / cam.fx, 0.f, z) + t;
-    const Eigen::Vector3f step = R.col(1) * (z / cam.fy);
-    const float top = (base + step * vt).z(), bottom = (base + step * (vt + 1.f)).z();
-    mn.z() = std::min({mn.z(), top, bottom});
-    mx.z() = std::max({mx.z(), top, bottom});
+    detail::grow_by_row(cam, R, t, v, z, u_mean, mn.z(), mx.z());
     pv0 = std::min(pv0, v);
     pv1 = std::max(pv1, v);
   }

@@ -7,6 +7,8 @@
 #include <limits>
 #include <utility>
 
+#include "pixel_footprint.hpp"
+
 namespace dynamap {
 
 namespace {
@@ -501,11 +503,7 @@ bool UMapDetector::fit_boxes(const PixelBand& band, const CameraIntrinsics& cam,
     const float v_mean =
         static_cast<float>(static_cast<double>(col_vdepth_sum_[static_cast<std::size_t>(u)]) /
                            static_cast<double>(col_depth_sum_[static_cast<std::size_t>(u)]));
-    const Eigen::Vector3f base = R * Eigen::Vector3f(0.f, (v_mean - cam.cy) * z / cam.fy, z) + t;
-    const Eigen::Vector3f step = R.col(0) * (z / cam.fx);
-    const Eigen::Vector3f left = base + step * ut, right = base + step * (ut + 1.f);
-    map_min = map_min.cwiseMin(left).cwiseMin(right);
-    map_max = map_max.cwiseMax(left).cwiseMax(right);
+    detail::grow_by_column(cam, R, t, u, z, v_mean, map_min, map_max);
     z_near = std::min(z_near, z);
     z_far = std::max(z_far, z);
     pu0 = std::min(pu0, u);
@@ -523,11 +521,7 @@ bool UMapDetector::fit_boxes(const PixelBand& band, const CameraIntrinsics& cam,
     const float u_mean =
         static_cast<float>(static_cast<double>(row_udepth_sum_[static_cast<std::size_t>(v)]) /
                            static_cast<double>(row_depth_sum_[static_cast<std::size_t>(v)]));
-    const Eigen::Vector3f base = R * Eigen::Vector3f((u_mean - cam.cx) * z / cam.fx, 0.f, z) + t;
-    const Eigen::Vector3f step = R.col(1) * (z / cam.fy);
-    const float top = (base + step * vt).z(), bottom = (base + step * (vt + 1.f)).z();
-    map_min.z() = std::min({map_min.z(), top, bottom});
-    map_max.z() = std::max({map_max.z(), top, bottom});
+    detail::grow_by_row(cam, R, t, v, z, u_mean, map_min.z(), map_max.z());
   }
   if (ys_max < ys_min) return false;
   box_map->min = map_min;
