@@ -28,6 +28,9 @@
 
 namespace {
 
+constexpr const char* kUsage =
+    "usage: bench_pipeline [frames=300] [passes=3] [--wall] [--threads=1,2,4 [--tiles=4]]\n";
+
 using namespace dynamap;
 
 struct Sequence {
@@ -144,12 +147,24 @@ int main(int argc, char** argv) {
       }
     } else if (arg.rfind("--tiles=", 0) == 0) {
       tiles = std::atoi(arg.c_str() + 8);
-    } else {
+    } else if (!arg.empty() && arg.find_first_not_of("0123456789") == std::string::npos &&
+               numbers.size() < 2) {
       numbers.push_back(std::atoi(argv[i]));
+    } else {
+      std::fprintf(stderr, "bench_pipeline: unknown argument '%s'\n%s", arg.c_str(), kUsage);
+      return 2;
     }
   }
   const int frames = numbers.size() > 0 ? numbers[0] : 300;
   const int passes = numbers.size() > 1 ? numbers[1] : 3;
+  const bool threads_ok = std::all_of(threads.begin(), threads.end(),
+                                      [](int n) { return n >= 1 && n <= kMaxMapThreads; });
+  if (frames < 2 || passes < 1 || tiles < 1 || tiles > kMaxCarveTiles || !threads_ok) {
+    std::fprintf(stderr,
+                 "bench_pipeline: need frames >= 2, passes >= 1, tiles 1..%d, threads 1..%d\n%s",
+                 static_cast<int>(kMaxCarveTiles), static_cast<int>(kMaxMapThreads), kUsage);
+    return 2;
+  }
   const Pipeline::Clock clock = wall ? &wall_clock : &cpu_clock;
   PipelineConfig config;
   std::printf("rendering %d frames of 640x480 ...\n", frames);
