@@ -12,8 +12,6 @@ namespace {
 bool finite_at_least(float v, float lo) noexcept {
   return std::isfinite(v) && v >= lo;
 }
-// Cell coordinates are kept well inside int32 (and float's exact integers).
-constexpr float kMaxCellCoord = 1.0e6f;
 }  // namespace
 
 Status validate(const FarFieldConfig& c) noexcept {
@@ -51,6 +49,7 @@ Status validate(const FarFieldConfig& c) noexcept {
 Status FarFieldLayer::init(const FarFieldConfig& config, float ground_height) noexcept {
   if (!ok(validate(config)) || !std::isfinite(ground_height)) return Status::kInvalidArgument;
   config_ = config;
+  inv_cell_size_ = 1.0f / config.cell_size;
   ground_height_ = ground_height;
   initialised_ = true;
   reset();
@@ -62,25 +61,6 @@ void FarFieldLayer::reset() noexcept {
   frame_ = 0;
   last_hits_ = 0;
 }
-
-bool FarFieldLayer::key(const Eigen::Vector2f& p, std::int32_t* ix,
-                        std::int32_t* iy) const noexcept {
-  const float fx = std::floor(p.x() / config_.cell_size);
-  const float fy = std::floor(p.y() / config_.cell_size);
-  if (!(std::fabs(fx) < kMaxCellCoord) || !(std::fabs(fy) < kMaxCellCoord)) return false;
-  *ix = static_cast<std::int32_t>(fx);
-  *iy = static_cast<std::int32_t>(fy);
-  return true;
-}
-
-namespace {
-std::size_t slot_of(std::int32_t ix, std::int32_t iy) noexcept {
-  constexpr std::uint32_t mask = static_cast<std::uint32_t>(kFarFieldCellsPerSide - 1);
-  const std::uint32_t sx = static_cast<std::uint32_t>(ix) & mask;
-  const std::uint32_t sy = static_cast<std::uint32_t>(iy) & mask;
-  return static_cast<std::size_t>(sy) * kFarFieldCellsPerSide + sx;
-}
-}  // namespace
 
 FarFieldLayer::Cell* FarFieldLayer::cell_for_write(const Eigen::Vector2f& p) noexcept {
   std::int32_t ix = 0;
@@ -95,22 +75,6 @@ FarFieldLayer::Cell* FarFieldLayer::cell_for_write(const Eigen::Vector2f& p) noe
     c.used = true;
   }
   return &c;
-}
-
-const FarFieldLayer::Cell* FarFieldLayer::cell_for_read(const Eigen::Vector2f& p) const noexcept {
-  std::int32_t ix = 0;
-  std::int32_t iy = 0;
-  if (!key(p, &ix, &iy)) return nullptr;
-  const Cell& c = cells_[slot_of(ix, iy)];
-  if (!c.used || c.ix != ix || c.iy != iy) return nullptr;
-  return &c;
-}
-
-bool FarFieldLayer::occupied(const Eigen::Vector2f& p) const noexcept {
-  if (!initialised_) return false;
-  const Cell* c = cell_for_read(p);
-  if (c == nullptr || c->evidence <= 0) return false;
-  return frame_ - c->last_hit <= static_cast<std::uint32_t>(config_.memory_frames);
 }
 
 int FarFieldLayer::evidence(const Eigen::Vector2f& p) const noexcept {

@@ -276,15 +276,18 @@ float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const 
           ? std::min<std::size_t>(kMaxClearanceLines,
                                   static_cast<std::size_t>(std::ceil(2.0f * radius / cell)) + 1)
           : 1;
+  std::array<float, kMaxClearanceLines> offset{};
+  for (std::size_t j = 0; j < lines; ++j) {
+    offset[j] = lines == 1 ? 0.0f
+                           : -radius + 2.0f * radius * static_cast<float>(j) /
+                                           static_cast<float>(lines - 1);
+  }
   const std::size_t n = std::min(path.count, kMaxPathSamples);
   for (std::size_t k = 0; k < n; ++k) {
     if (path.arc_length[k] > limit) break;
     const Eigen::Vector2f normal(-path.tangent[k].y(), path.tangent[k].x());
     for (std::size_t j = 0; j < lines; ++j) {
-      const float off = lines == 1 ? 0.0f
-                                   : -radius + 2.0f * radius * static_cast<float>(j) /
-                                                   static_cast<float>(lines - 1);
-      const Eigen::Vector2f p2 = path.position[k] + off * normal;
+      const Eigen::Vector2f p2 = path.position[k] + offset[j] * normal;
       if (g.self_r > 0.0f && (p2 - g.self_centre).squaredNorm() < g.self_r2) continue;
       if (far.occupied(p2)) {
         *free = false;

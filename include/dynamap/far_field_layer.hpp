@@ -72,8 +72,13 @@ class FarFieldLayer {
                               const Pose& T_map_camera, const FarFieldExclusion* exclusions,
                               std::size_t count) noexcept;
 
-  /// Is the cell holding map point `p` (top view) a remembered wall?
-  bool occupied(const Eigen::Vector2f& p) const noexcept;
+  /// Is the cell holding map point `p` (top view) a remembered wall? Inline: the predictor asks
+  /// this for every footprint point of every sample of every path.
+  bool occupied(const Eigen::Vector2f& p) const noexcept {
+    const Cell* c = initialised_ ? cell_for_read(p) : nullptr;
+    return c != nullptr && c->evidence > 0 &&
+           frame_ - c->last_hit <= static_cast<std::uint32_t>(config_.memory_frames);
+  }
   /// Evidence of that cell (0 when never touched or overwritten by the rolling window).
   int evidence(const Eigen::Vector2f& p) const noexcept;
 
@@ -92,9 +97,38 @@ class FarFieldLayer {
     std::int8_t evidence = 0;
     bool used = false;
   };
+  /// Cell coordinates are kept well inside int32 (and float's exact integers).
+  static constexpr float kMaxCellCoord = 1.0e6f;
+
   Cell* cell_for_write(const Eigen::Vector2f& p) noexcept;
-  const Cell* cell_for_read(const Eigen::Vector2f& p) const noexcept;
-  bool key(const Eigen::Vector2f& p, std::int32_t* ix, std::int32_t* iy) const noexcept;
+  const Cell* cell_for_read(const Eigen::Vector2f& p) const noexcept {
+    std::int32_t ix = 0;
+    std::int32_t iy = 0;
+    if (!key(p, &ix, &iy)) return nullptr;
+    const Cell& c = cells_[slot_of(ix, iy)];
+    return c.used && c.ix == ix && c.iy == iy ? &c : nullptr;
+  }
+  /// Grid coordinates of `p`: floor(p / cell_size), false when out of range or not finite.
+  bool key(const Eigen::Vector2f& p, std::int32_t* ix, std::int32_t* iy) const noexcept {
+    const float qx = p.x() * inv_cell_size_;
+    const float qy = p.y() * inv_cell_size_;
+    if (!(qx > -kMaxCellCoord && qx < kMaxCellCoord && qy > -kMaxCellCoord && qy < kMaxCellCoord)) {
+      return false;  // also rejects NaN
+    }
+    // floor without a libm call: truncation rounds negative non-integers up by one.
+    const auto tx = static_cast<std::int32_t>(qx);
+    const auto ty = static_cast<std::int32_t>(qy);
+    *ix = tx - static_cast<std::int32_t>(qx < static_cast<float>(tx));
+    *iy = ty - static_cast<std::int32_t>(qy < static_cast<float>(ty));
+    return true;
+  }
+  /// Rolling-window slot of a cell: its coordinates modulo the grid side.
+  static std::size_t slot_of(std::int32_t ix, std::int32_t iy) noexcept {
+    constexpr std::uint32_t mask = static_cast<std::uint32_t>(kFarFieldCellsPerSide - 1);
+    const std::uint32_t sx = static_cast<std::uint32_t>(ix) & mask;
+    const std::uint32_t sy = static_cast<std::uint32_t>(iy) & mask;
+    return static_cast<std::size_t>(sy) * kFarFieldCellsPerSide + sx;
+  }
   void add_hit(const Eigen::Vector2f& p) noexcept;
   void add_free(const Eigen::Vector2f& from, const Eigen::Vector2f& to) noexcept;
   // update() in steps (far_field_layer.cpp).
@@ -116,6 +150,7 @@ class FarFieldLayer {
 
   FarFieldConfig config_{};
   float ground_height_ = 0.0f;
+  float inv_cell_size_ = 5.0f;  ///< 1 / config_.cell_size
   bool initialised_ = false;
   std::uint32_t frame_ = 0;
   std::size_t last_hits_ = 0;
