@@ -22,7 +22,9 @@ Status LinearPredictor::predict(const ObstacleState* obstacles, std::size_t coun
   const Status bad = validate_prediction_call(obstacles, count, map, out);
   if (!ok(bad)) return bad;
   for (std::size_t k = 0; k < count; ++k) {
-    const ObstacleState& o = obstacles[k];
+    // The yardstick stays as it was: no range-dependent own-body margin.
+    ObstacleState o = obstacles[k];
+    o.body_margin = 0.0f;
     PathPrediction& p = out[k];
     library_.sample(0, o.position.head<2>(), o.velocity, &path_);
     const PathClearance c = sweep_path(map, path_, o, config_.clearance);

@@ -220,6 +220,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(predictor.clearance.chord_tolerance), X, "m", 0, kInf, kClosed, kOpen, "a merged chord may leave the path by this much"},
     {DYNAMAP_FIELD(predictor.clearance.ground_clearance), X, "m", 0, kInf, kClosed, kOpen, "height above the box bottom not checked (floor voxels)"},
     {DYNAMAP_FIELD(predictor.clearance.self_margin), X, "m", 0, kInf, kClosed, kOpen, "space around the obstacle's own body not checked"},
+    {DYNAMAP_FIELD(predictor.clearance.self_range_margin), X, "m/m^2", 0, kInf, kClosed, kOpen, "added to self_margin per squared m of the obstacle's range"},
     // Predictor: Markov chain.
     {DYNAMAP_FIELD(predictor.sigma_init), X, "rad", 0, kInf, kOpen, kOpen, "spread of the initial belief around the straight path"},
     {DYNAMAP_FIELD(predictor.sigma_trans), X, "rad", 0, kInf, kOpen, kOpen, "spread of each transition row around its diagonal"},

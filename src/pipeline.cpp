@@ -128,7 +128,7 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   clean(frame, work);
   lap(Stage::kCleaning, clock);
   // Prediction for dynamic tracks, after the far-field layer has taken this frame's far pixels.
-  const std::size_t n_dyn = collect_dynamic();
+  const std::size_t n_dyn = collect_dynamic(frame);
   const FarFieldLayer* far = update_far_field(frame, n_dyn);
   lap(Stage::kFarField, clock);
   out.num_predictions = predict(frame, n_dyn, far, out);
@@ -191,11 +191,19 @@ void Pipeline::clean(const Frame& frame, FrameWork& work) noexcept {
   work.dynamic_tracks = cleaner_.last_stats().dynamic_tracks;
 }
 
-std::size_t Pipeline::collect_dynamic() noexcept {
+std::size_t Pipeline::collect_dynamic(const Frame& frame) noexcept {
+  const Eigen::Vector3f camera = frame.T_map_camera.translation;
+  const float per_m2 = config_.predictor.clearance.self_range_margin;
+  const float max_range2 = config_.map.max_depth * config_.map.max_depth;
   std::size_t n_dyn = 0;
   for (std::size_t i = 0; i < tracker_.size(); ++i) {
     const TrackedObstacle& o = tracker_.obstacle(i);
-    if (o.dynamic) predictor_input_[n_dyn++] = predictor_input(o);
+    if (!o.dynamic) continue;
+    ObstacleState& s = predictor_input_[n_dyn++];
+    s = predictor_input(o);
+    // The map holds no hits beyond max_depth, so the margin stops growing there.
+    const float range2 = std::fmin((s.position - camera).squaredNorm(), max_range2);
+    s.body_margin = per_m2 * range2;
   }
   return n_dyn;
 }

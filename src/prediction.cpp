@@ -19,6 +19,9 @@ Status validate(const ClearanceConfig& c) noexcept {
     return Status::kInvalidArgument;
   }
   if (!std::isfinite(c.self_margin) || c.self_margin < 0.0f) return Status::kInvalidArgument;
+  if (!std::isfinite(c.self_range_margin) || c.self_range_margin < 0.0f) {
+    return Status::kInvalidArgument;
+  }
   return Status::kOk;
 }
 
@@ -63,10 +66,12 @@ Status validate(const DepthEvidence& e) noexcept {
 
 Status validate(const ObstacleState& o) noexcept {
   if (!o.position.allFinite() || !o.velocity.allFinite() || !std::isfinite(o.footprint_radius) ||
-      !std::isfinite(o.height)) {
+      !std::isfinite(o.height) || !std::isfinite(o.body_margin)) {
     return Status::kNonFinite;
   }
-  if (o.footprint_radius < 0.0f || o.height < 0.0f) return Status::kInvalidArgument;
+  if (o.footprint_radius < 0.0f || o.height < 0.0f || o.body_margin < 0.0f) {
+    return Status::kInvalidArgument;
+  }
   return Status::kOk;
 }
 
@@ -145,7 +150,7 @@ SweepGeometry sweep_geometry(const ObstacleState& obstacle,
   }
   // The obstacle's own body: not checked.
   g.self_centre = obstacle.position.head<2>();
-  g.self_r = clearance.self_margin > 0.0f ? r + clearance.self_margin : 0.0f;
+  g.self_r = clearance.self_margin > 0.0f ? r + clearance.self_margin + obstacle.body_margin : 0.0f;
   g.self_r2 = g.self_r * g.self_r;
   return g;
 }

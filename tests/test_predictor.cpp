@@ -628,6 +628,12 @@ TEST(MarkovPredictor, BadInputChangesNothing) {
   bad[1].footprint_radius = -0.1f;
   EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kInvalidArgument);
   bad = in;
+  bad[1].body_margin = -0.1f;
+  EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kInvalidArgument);
+  bad = in;
+  bad[0].body_margin = NAN;
+  EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kNonFinite);
+  bad = in;
   bad[1].track_id = bad[0].track_id;
   EXPECT_EQ(mp.predict(bad.data(), 2, w.query(), out.data()), Status::kInvalidArgument);
   EXPECT_EQ(mp.predict(nullptr, 2, w.query(), out.data()), Status::kNullData);
@@ -860,6 +866,38 @@ TEST(MarkovPredictor, OwnBodyInTheMapIsNotAnObstacle) {
   EXPECT_EQ(validate(bad), Status::kInvalidArgument);
   bad.self_margin = std::nanf("");
   EXPECT_EQ(validate(bad), Status::kInvalidArgument);
+  bad = ClearanceConfig{};
+  bad.self_range_margin = -0.01f;
+  EXPECT_EQ(validate(bad), Status::kInvalidArgument);
+}
+
+TEST(MarkovPredictor, FarWalkersNoisyFrontIsNotAnObstacle) {
+  // A walker 5 m from the camera coming towards it: its own hits scatter along the ray by the
+  // depth noise, so the map holds a layer of its front just outside r + self_margin (0.45 m),
+  // across every path. With the range margin (body_margin 0.21 m) the layer is inside the skipped
+  // disc and a wall 2 m ahead is still found; the linear yardstick ignores body_margin.
+  BoxWorld w;
+  w.add_box(Box3{Eigen::Vector3f(0.47f, -0.55f, 0.0f), Eigen::Vector3f(0.55f, 0.55f, 1.7f)});
+  w.add_box(wall(2.0f, -0.6f, 2.2f, 0.6f));
+  ObstacleState o = walker(1, 0.0f, 0.0f, 1.0f, 0.0f);
+  for (float body : {0.0f, 0.21f}) {
+    o.body_margin = body;
+    MarkovPredictor mp;
+    ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+    PathPrediction out;
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    EXPECT_FALSE(out.path_free(2));  // the straight path meets the front or the wall
+    if (body > 0.0f) {
+      EXPECT_NEAR(out.free_distance[2], 2.0f, 0.05f);  // the wall
+    } else {
+      EXPECT_LT(out.free_distance[2], 0.6f);  // the front
+      EXPECT_FALSE(out.any_free);
+    }
+    LinearPredictor lin;
+    ASSERT_EQ(lin.init(LinearPredictorConfig{}), Status::kOk);
+    ASSERT_EQ(lin.predict(&o, 1, w.query(), &out), Status::kOk);
+    EXPECT_LT(out.free_distance[0], 0.6f);  // the front, with or without body_margin
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -146,7 +146,7 @@ class Pipeline {
   void detect(const Frame& frame, FrameWork& work) noexcept;
   void track(const Frame& frame, FrameWork& work) noexcept;
   void clean(const Frame& frame, FrameWork& work) noexcept;
-  std::size_t collect_dynamic() noexcept;
+  std::size_t collect_dynamic(const Frame& frame) noexcept;
   const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn) noexcept;
   std::size_t predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
                       FrameOutput& out) noexcept;

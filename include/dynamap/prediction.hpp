@@ -23,6 +23,9 @@ struct ObstacleState {
   Eigen::Vector2f velocity = Eigen::Vector2f::Zero();  ///< m/s in the map's x-y plane
   float footprint_radius = 0.3f;                       ///< m, clearance kept from the static map
   float height = 1.8f;                                 ///< m, vertical extent of the box
+  /// m added to ClearanceConfig::self_margin for this obstacle, >= 0: its own hits scatter
+  /// farther from its box the farther it is from the camera (Pipeline sets it from the range).
+  float body_margin = 0.0f;
 };
 
 /// Non-owning, type-erased view of anything with OccupancyMap's
@@ -94,6 +97,12 @@ struct ClearanceConfig {
   /// box, the cleaner's margin), and without this every path "collides" within 0.0-0.4 m.
   /// 0 disables it (every voxel along the path counts, also inside the body).
   float self_margin = 0.15f;
+  /// m per m^2 of the obstacle's range from the camera (capped at map.max_depth) that Pipeline
+  /// adds to self_margin as ObstacleState::body_margin: a far walker's own hits scatter along the
+  /// ray by the depth noise, which grows with range squared (2 sigma of a stereo camera's range
+  /// term; 0.21 m at 5 m). Without it a walker coming towards the camera from 4-5 m "collides"
+  /// with its own front on every path. 0 disables it.
+  float self_range_margin = 0.0084f;
 };
 
 /// The current depth frame as a second, bounded source of environment knowledge for the sweep
