@@ -171,6 +171,8 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(tracker.max_extent_change_ratio), X, "", -kInf, kInf, kOpen, kOpen, "rigid-motion test of the vote (negative: off)"},
     {DYNAMAP_FIELD(tracker.max_round_footprint), X, "m", 0, kInf, kClosed, kOpen, "bias correction only for footprints up to this long (0: no limit)"},
     {DYNAMAP_FIELD(tracker.early_votes), X, "", 0, kMaxVoteWindow, kClosed, kClosed, "this many consecutive dynamic votes label dynamic early (0: off)"},
+    {DYNAMAP_FIELD(tracker.dynamic_hold_frames), X, "frames", 0, 100000, kClosed, kClosed, "a confirmed dynamic track keeps its label this long after its votes turn static (0: off)"},
+    {DYNAMAP_FIELD(tracker.hold_min_dynamic_frames), X, "frames", 1, 100000, kClosed, kClosed, "frames labelled dynamic before the hold applies"},
     {DYNAMAP_FIELD(tracker.early_displacement_frames), X, "frames", 0, kMaxTrackHistory, kClosed, kClosed, "displacement span of the early votes (0: no early votes)"},
     {DYNAMAP_FIELD(tracker.size_fix_growth), X, "", 0, 1, kClosed, kClosed, "raise a frozen size to a larger window mean"},
     {DYNAMAP_FIELD(tracker.measure_raw_box), X, "", 0, 1, kClosed, kClosed, "measure from the detector's box, not the map-refined one"},

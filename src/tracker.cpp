@@ -8,6 +8,9 @@ namespace dynamap {
 
 namespace {
 
+/// Saturation of Track::dynamic_frames: far above any hold_min_dynamic_frames in use.
+constexpr std::size_t kMaxHoldCount = std::size_t{1} << 20;
+
 float seconds_between(Stamp earlier, Stamp later) noexcept {
   return static_cast<float>(static_cast<double>(later - earlier) * 1e-9);
 }
@@ -48,7 +51,9 @@ Status TrackerConfig::validate() const noexcept {
                     continuity.displacement_frames + 1 <= history_length &&
                     box_history_length >= 1 && box_history_length <= kMaxBoxHistory &&
                     size_fix_frames >= 1 && early_votes <= continuity.vote_window &&
-                    early_displacement_frames < continuity.displacement_frames && image_margin >= 0;
+                    early_displacement_frames < continuity.displacement_frames &&
+                    image_margin >= 0 && dynamic_hold_frames <= 100000 &&
+                    hold_min_dynamic_frames >= 1 && hold_min_dynamic_frames < kMaxHoldCount;
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 
@@ -147,6 +152,9 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.ever_free_streak = 0;
   t.every_vote_dynamic = true;
   t.was_dynamic = false;
+  t.dynamic_frames = 0;
+  t.held_frames = 0;
+  t.holding = false;
   t.label = false;
   t.positions.clear();
   t.positions.push(m.center.head<2>(), config_.history_length + 1);
@@ -267,7 +275,7 @@ void Tracker::vote(Track& t) noexcept {
   if (n < span + 2 && early_span > 0 && n >= 2 * early_span + 1) span = early_span;
   if (!continuity_score(ordered.data(), n, span, &c_con)) {
     t.label = ever_free_label(t);  // no vote yet: only the ever-free evidence
-    if (t.label) t.was_dynamic = true;
+    hold_label(t);
     return;
   }
   t.out.continuity = c_con;
@@ -280,7 +288,28 @@ void Tracker::vote(Track& t) noexcept {
   const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
                      (t.every_vote_dynamic || t.was_dynamic);
   t.label = t.voter.dynamic() || early || ever_free_label(t);
-  if (t.label) t.was_dynamic = true;
+  hold_label(t);
+}
+
+void Tracker::hold_label(Track& t) const noexcept {
+  if (t.label) {
+    t.was_dynamic = true;
+    t.holding = false;
+    t.held_frames = 0;
+    if (t.dynamic_frames < kMaxHoldCount) ++t.dynamic_frames;
+    return;
+  }
+  const std::size_t hold = config_.dynamic_hold_frames;
+  if (hold == 0 || t.dynamic_frames < config_.hold_min_dynamic_frames) return;
+  // A hold starts only when the label goes because the track slowed down (a stop); a track
+  // whose votes turn static while it still moves (non-rigid, implausible size) gets none. Once
+  // started it runs on while the person walks off again, until the votes take over.
+  if (!t.holding && !(t.kf.velocity().norm() < config_.continuity.min_speed)) return;
+  t.holding = true;
+  if (t.held_frames < hold) {
+    ++t.held_frames;
+    t.label = true;
+  }
 }
 
 Status Tracker::check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -479,6 +480,7 @@ TEST(TrackerLabels, WalkerAfterAPauseIsRelabelledEarly) {
   for (const std::size_t early : {TrackerConfig{}.early_votes, std::size_t{0}}) {
     TrackerConfig config;
     config.early_votes = early;
+    config.dynamic_hold_frames = 0;  // the relabelling itself, without the hold
     auto tracker = make_tracker(config);
     Stamp stamp = 0;
     float y = -1.5f;
@@ -505,6 +507,46 @@ TEST(TrackerLabels, WalkerAfterAPauseIsRelabelledEarly) {
   // from there 4 votes instead of 16.
   EXPECT_LE(relabel_frames[0] + 6, relabel_frames[1])
       << "early " << relabel_frames[0] << " T_c rule " << relabel_frames[1];
+}
+
+// A walker who stops for 2.5 s and walks on (a door, a queue; the crowd scene's middle lane):
+// with the hold the label stays dynamic through the stop; without it the label goes and comes
+// back only after new votes. A track labelled dynamic on fewer frames than
+// hold_min_dynamic_frames (a wall piece that passed a few votes) gets no hold.
+std::vector<bool> labels_of_walker_who_stops(std::size_t hold, int walk_frames) {
+  TrackerConfig config;
+  config.dynamic_hold_frames = hold;
+  auto tracker = make_tracker(config);
+  Stamp stamp = 0;
+  float y = -1.5f;
+  std::vector<bool> labels;
+  for (int f = 0; f < walk_frames + 75 + 30; ++f) {
+    const bool stopped = f >= walk_frames && f < walk_frames + 75;
+    if (!stopped) y += 1.f / 30.f;
+    const Detection d = detection({4.f, y, 0.85f});
+    EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    EXPECT_EQ(tracker->size(), 1u);
+    labels.push_back(tracker->size() == 1 && tracker->obstacle(0).dynamic);
+  }
+  return labels;
+}
+
+TEST(TrackerLabels, WalkerWhoStopsKeepsTheLabelForTheHold) {
+  const int walk = 60;  // labelled at frame ~10: 50 frames dynamic before the stop
+  const std::vector<bool> held = labels_of_walker_who_stops(90, walk);
+  const std::vector<bool> plain = labels_of_walker_who_stops(0, walk);
+  const int first = static_cast<int>(std::find(held.begin(), held.end(), true) - held.begin());
+  ASSERT_LT(first, walk - 30);
+  for (int f = first; f < static_cast<int>(held.size()); ++f) {
+    EXPECT_TRUE(held[static_cast<std::size_t>(f)]) << "frame " << f;
+  }
+  EXPECT_FALSE(plain[static_cast<std::size_t>(walk + 74)]);  // end of the stop: static
+  // A hold shorter than the stop ends within it.
+  EXPECT_FALSE(labels_of_walker_who_stops(20, walk)[static_cast<std::size_t>(walk + 74)]);
+  // Too short a dynamic history for a hold: the hold changes nothing.
+  const std::vector<bool> brief = labels_of_walker_who_stops(0, 15);
+  ASSERT_LT(std::count(brief.begin(), brief.begin() + 15 + 75, true), 30);
+  EXPECT_EQ(labels_of_walker_who_stops(90, 15), brief);
 }
 
 // A walker stepping out from behind a pillar: for the first 10 frames only 0.2 m of it is seen
@@ -766,6 +808,9 @@ TEST(TrackerRobustness, BadConfigIsRefused) {
   EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.max_round_footprint = -1.f;
+  EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
+  c = TrackerConfig{};
+  c.hold_min_dynamic_frames = 0;
   EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.image_margin = 240;  // no pixel of a 640 x 480 image is 240 px from every border

@@ -73,6 +73,15 @@ struct TrackerConfig {
   /// walker after a pause) may be re-labelled the same way by `early_votes` consecutive dynamic
   /// votes.
   std::size_t early_votes = 4;
+  /// Label hold (0 disables): a track labelled dynamic on at least `hold_min_dynamic_frames`
+  /// frames whose label goes while it is slower than continuity.min_speed (it stopped) keeps the
+  /// label for up to this many measured frames, through the restart until the votes take over.
+  /// A person who stops (at a door, in a queue) is still a person: without the hold the label
+  /// goes with the motion and comes back only after new votes once they walk on, and meanwhile
+  /// the planner sees a static obstacle and the map takes the person in as static. A track
+  /// whose votes turn static while it still moves fast (a sliding wall piece) gets no hold.
+  std::size_t dynamic_hold_frames = 90;
+  std::size_t hold_min_dynamic_frames = 30;  ///< frames labelled dynamic before a hold applies
   /// While the history is shorter than the n + 2 states the continuity filter needs, vote with
   /// displacements this many frames apart once 2 * early_displacement_frames + 1 states exist
   /// (0: no votes before n + 2 states). At 1 m/s, 3 frames are 10 cm, six times the
@@ -189,6 +198,9 @@ class Tracker {
     std::size_t ever_free_streak = 0;  // measured frames in a row in ever-free space
     bool every_vote_dynamic = true;    // no static vote and no missed frame since the first vote
     bool was_dynamic = false;          // labelled dynamic at some time
+    std::size_t dynamic_frames = 0;    // measured frames labelled dynamic (saturates)
+    std::size_t held_frames = 0;       // measured frames the label has been held
+    bool holding = false;              // a hold started (the label went while slow)
     bool label = false;
     bool active = false;
   };
@@ -231,6 +243,7 @@ class Tracker {
   // the continuity filter's vote with the label.
   void update_size(Track& t, const Measurement& m) noexcept;
   void vote(Track& t) noexcept;
+  void hold_label(Track& t) const noexcept;  ///< dynamic_hold_frames after the vote
   void count_ever_free(Track& t, const Detection& det) noexcept;
   bool ever_free_label(const Track& t) const noexcept;
   void publish() noexcept;
