@@ -54,16 +54,22 @@ PathHorizon PathLibrary::horizon(float speed) const noexcept {
   return h;
 }
 
-void PathLibrary::sample_local(std::size_t i, float speed, PathSamples* out) const noexcept {
-  const PathHorizon h = horizon(speed);
+namespace {
+
+/// Samples path i for `speed` and stores each sample through place(k, local position, local
+/// tangent): one pass for both the velocity-frame and the map-frame samples.
+template <class Place>
+void sample_path(const PathLibrary& lib, std::size_t i, float speed, PathSamples* out,
+                 const Place& place) noexcept {
+  const PathHorizon h = lib.horizon(speed);
   const std::size_t n = h.samples;
   const float intervals = static_cast<float>(n - 1);
   const float ds = h.length / intervals;
   const float dt = h.duration / intervals;
 
-  const float theta = heading_change(i);
+  const float theta = lib.heading_change(i);
   const float sign = theta >= 0.0f ? 1.0f : -1.0f;
-  const float kappa = config_.turn_curvature;
+  const float kappa = lib.config().turn_curvature;
   const float s_turn = std::fabs(theta) / kappa;
   // End of the arc, and the straight continuation's direction.
   const float c_end = std::cos(theta);
@@ -82,11 +88,9 @@ void PathLibrary::sample_local(std::size_t i, float speed, PathSamples* out) con
     out->time[k] = static_cast<float>(k) * dt;
     out->arc_length[k] = arc;
     if (arc <= s_turn) {
-      out->position[k] = Eigen::Vector2f(s / kappa, sign * (1.0f - c) / kappa);
-      out->tangent[k] = Eigen::Vector2f(c, sign * s);
+      place(k, Eigen::Vector2f(s / kappa, sign * (1.0f - c) / kappa), Eigen::Vector2f(c, sign * s));
     } else {
-      out->position[k] = arc_end + (arc - s_turn) * dir_end;
-      out->tangent[k] = dir_end;
+      place(k, Eigen::Vector2f(arc_end + (arc - s_turn) * dir_end), dir_end);
     }
     const float c_next = c * c_step - s * s_step;
     s = s * c_step + c * s_step;
@@ -94,19 +98,27 @@ void PathLibrary::sample_local(std::size_t i, float speed, PathSamples* out) con
   }
 }
 
+}  // namespace
+
+void PathLibrary::sample_local(std::size_t i, float speed, PathSamples* out) const noexcept {
+  sample_path(*this, i, speed, out,
+              [out](std::size_t k, const Eigen::Vector2f& p, const Eigen::Vector2f& t) {
+                out->position[k] = p;
+                out->tangent[k] = t;
+              });
+}
+
 void PathLibrary::sample(std::size_t i, const Eigen::Vector2f& origin,
                          const Eigen::Vector2f& velocity, PathSamples* out) const noexcept {
   const float speed = velocity.norm();
-  sample_local(i, speed, out);
   Eigen::Vector2f fwd(1.0f, 0.0f);
   if (speed > kMinHeadingSpeed) fwd = velocity / speed;
   const Eigen::Vector2f left(-fwd.y(), fwd.x());
-  for (std::size_t k = 0; k < out->count; ++k) {
-    const Eigen::Vector2f p = out->position[k];
-    const Eigen::Vector2f t = out->tangent[k];
-    out->position[k] = origin + p.x() * fwd + p.y() * left;
-    out->tangent[k] = t.x() * fwd + t.y() * left;
-  }
+  sample_path(*this, i, speed, out,
+              [&](std::size_t k, const Eigen::Vector2f& p, const Eigen::Vector2f& t) {
+                out->position[k] = origin + p.x() * fwd + p.y() * left;
+                out->tangent[k] = t.x() * fwd + t.y() * left;
+              });
 }
 
 }  // namespace dynamap
