@@ -1000,12 +1000,23 @@ void OccupancyMap::list_tile_rays(std::size_t t) noexcept {
   for (std::size_t j = 0; j < rows; ++j) {
     const std::uint8_t* kept = &end_kept_[j * columns];
     const auto v = static_cast<std::uint32_t>(margin + j * stride);
-    for (std::size_t k = k0; k < k1; ++k) {
-      if (kept[k] == 0) continue;
+    const auto take = [&](std::size_t k) {
       const auto kk = static_cast<std::uint32_t>(k);
       const std::uint32_t level = by_level ? order_level(kk, static_cast<std::uint32_t>(j)) : 0;
       rays_[n++] = (v * width + margin + kk * stride) | (level << kKeyShift);
       ++start[level + 1];
+    };
+    std::size_t k = k0;
+    for (; k + 8 <= k1; k += 8) {
+      std::uint64_t eight = 0;  // few pixels keep a ray (most merge): skip 8 flags at once
+      std::memcpy(&eight, &kept[k], sizeof(eight));
+      if (eight == 0) continue;
+      for (std::size_t i = k; i < k + 8; ++i) {
+        if (kept[i] != 0) take(i);
+      }
+    }
+    for (; k < k1; ++k) {
+      if (kept[k] != 0) take(k);
     }
   }
   for (std::size_t key = 1; key < start.size(); ++key) start[key] += start[key - 1];
