@@ -706,14 +706,14 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
 }
 
 // --- Pass 1 on the team (carve_tiles > 0) ----------------------------------------------------
-// The same end voxels and map updates as mark_end_points(), in three steps: the members compute
-// the end voxels of their rows into end_codes_, bucket the sample indices by owner (cell %
-// members) and list the cells their rows end in; this thread acquires those cells' blocks, in
-// pixel order of first appearance; each member then runs the pixel-order updates of the cells
-// it owns, reading only its buckets, which decide merges and hits per voxel exactly as the
-// one-thread loop does, since they depend only on the pixels ending in that voxel. Each tile
-// then lists its kept rays itself (list_tile_rays()). Used when the visit of every sampled
-// pixel fits max_rays_per_frame (the cap is a pixel-order rule).
+// The same end voxels and map updates as mark_end_points(), in three steps: the members claim
+// fixed chunks of rows, compute their end voxels into end_codes_, bucket the sample indices by
+// owner (cell % members) and list the cells each chunk ends in; this thread acquires those
+// cells' blocks, in pixel order of first appearance; each member then runs the pixel-order
+// updates of the cells it owns, reading only its buckets, which decide merges and hits per
+// voxel exactly as the one-thread loop does, since they depend only on the pixels ending in
+// that voxel. Each tile then lists its kept rays itself (list_tile_rays()). Used when the visit
+// of every sampled pixel fits max_rays_per_frame (the cap is a pixel-order rule).
 
 namespace {
 constexpr std::uint32_t kSkipCode = 0xFFFFFFFFu;     ///< closer than min_depth
@@ -757,14 +757,15 @@ struct OccupancyMap::EndCodeSink {
   }
 };
 
-void OccupancyMap::compute_end_codes(unsigned member) noexcept {
+/// End codes of the rows of `chunk` (pass 1 on the team), bucketed by owner.
+void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
   const EndPointConstants c = end_point_constants();
   const int margin = config_.pixel_margin, stride = config_.pixel_stride;
   const int columns = sampled_columns_;
   const int rows = std::max(0, (cam_->height - 2 * margin + stride - 1) / stride);
   const unsigned members = team_.size();
-  const int j0 = static_cast<int>(static_cast<unsigned>(rows) * member / members);
-  const int j1 = static_cast<int>(static_cast<unsigned>(rows) * (member + 1) / members);
+  const auto j0 = static_cast<int>(static_cast<std::size_t>(rows) * chunk / kCodeChunks);
+  const auto j1 = static_cast<int>(static_cast<std::size_t>(rows) * (chunk + 1) / kCodeChunks);
   const LocalGrid grid = local_grid();
   const Eigen::Array4i off_x =
       Eigen::Array4i::Constant((key_base_[0] >> kBlockBits) - grid.origin[0]);
@@ -776,9 +777,9 @@ void OccupancyMap::compute_end_codes(unsigned member) noexcept {
   const Eigen::Array4i dim_y = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[1]));
   const Eigen::Array4i dim_z = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[2]));
   const std::size_t band_first = static_cast<std::size_t>(j0) * static_cast<std::size_t>(columns);
-  member_first_[member] = band_first;
-  EndCodeSink sink{
-      members, {}, {}, member_seen_[member].data(), member_cells_[member].data(), 0, kMaxTileCells};
+  chunk_first_[chunk] = band_first;
+  EndCodeSink sink{members, {},           {}, chunk_seen_[chunk].data(), chunk_cells_[chunk].data(),
+                   0,       kMaxTileCells};
   for (unsigned o = 0; o < members; ++o) sink.buckets[o] = &owner_samples_[o][band_first];
   std::fill_n(sink.seen, kMaxTileCells / 64, std::uint64_t{0});
   for (int j = j0; j < j1; ++j) {
@@ -817,8 +818,8 @@ void OccupancyMap::compute_end_codes(unsigned member) noexcept {
       }
     }
   }
-  owner_counts_[member] = sink.counts;
-  member_cell_count_[member] = sink.cell_count;
+  owner_counts_[chunk] = sink.counts;
+  chunk_cell_count_[chunk] = sink.cell_count;
 }
 
 /// The blocks of the cells the members' rows end in, in pixel order of first appearance (the
@@ -827,9 +828,9 @@ void OccupancyMap::compute_end_codes(unsigned member) noexcept {
 void OccupancyMap::acquire_end_blocks() noexcept {
   const LocalGrid grid = local_grid();
   std::fill(acquire_failed_.begin(), acquire_failed_.end(), std::uint64_t{0});
-  for (unsigned m = 0; m < team_.size(); ++m) {
-    for (std::size_t i = 0; i < member_cell_count_[m]; ++i) {
-      const std::uint32_t cell = member_cells_[m][i];
+  for (std::size_t c = 0; c < kCodeChunks; ++c) {
+    for (std::size_t i = 0; i < chunk_cell_count_[c]; ++i) {
+      const std::uint32_t cell = chunk_cells_[c][i];
       const std::uint64_t bit = std::uint64_t{1} << (cell & 63u);
       if (grid.cells[cell] != 0 || (acquire_failed_[cell >> 6] & bit) != 0) continue;
       const std::uint32_t gi = cell % grid.dim[0];
@@ -844,9 +845,8 @@ void OccupancyMap::acquire_end_blocks() noexcept {
   }
 }
 
-/// Owner `member`'s pixel-order updates: its buckets of every member's rows, in row order.
+/// Owner `member`'s pixel-order updates: its buckets of every chunk's rows, in row order.
 void OccupancyMap::mark_end_codes(unsigned member, std::size_t samples) noexcept {
-  const unsigned members = team_.size();
   const EndMarkStamps stamps = end_mark_stamps(samples);
   EndMarkCounters k{};
   const std::uint16_t* cells = local_grid_.data();
@@ -855,9 +855,9 @@ void OccupancyMap::mark_end_codes(unsigned member, std::size_t samples) noexcept
   static_assert((kOutsideCode >> 10) >= kMaxTileCells, "outside code names no cell");
   std::uint32_t last_cell = 0xFFFFFFFFu;
   Block* block = nullptr;
-  for (unsigned m = 0; m < members; ++m) {
-    const std::size_t first = member_first_[m];
-    const std::size_t end = first + owner_counts_[m][member];
+  for (std::size_t c = 0; c < kCodeChunks; ++c) {
+    const std::size_t first = chunk_first_[c];
+    const std::size_t end = first + owner_counts_[c][member];
     for (std::size_t i = first; i < end; ++i) {
       const std::uint32_t s = bucket[i];
       const std::uint32_t code = end_codes_[s];
@@ -886,9 +886,16 @@ void OccupancyMap::mark_end_points_in_team(const DepthView& depth) noexcept {
   const int rows = std::max(0, (cam_->height - 2 * margin + stride - 1) / stride);
   const std::size_t samples = static_cast<std::size_t>(rows) * static_cast<std::size_t>(columns);
   team_depth_ = &depth;
-  team_.run([](void* self,
-               unsigned member) { static_cast<OccupancyMap*>(self)->compute_end_codes(member); },
-            this);
+  next_chunk_.store(0, std::memory_order_relaxed);
+  team_.run(
+      [](void* self, unsigned) {
+        auto& map = *static_cast<OccupancyMap*>(self);
+        for (std::uint32_t c = map.next_chunk_.fetch_add(1, std::memory_order_relaxed);
+             c < kCodeChunks; c = map.next_chunk_.fetch_add(1, std::memory_order_relaxed)) {
+          map.compute_end_codes(c);
+        }
+      },
+      this);
   acquire_end_blocks();
   team_samples_ = samples;
   team_.run(

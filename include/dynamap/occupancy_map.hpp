@@ -350,7 +350,7 @@ class OccupancyMap {
   void mark_end_points(const DepthView& depth) noexcept;
   void mark_end_points_in_team(const DepthView& depth) noexcept;
   struct EndCodeSink;
-  void compute_end_codes(unsigned member) noexcept;
+  void compute_end_codes(std::size_t chunk) noexcept;
   void acquire_end_blocks() noexcept;
   void mark_end_codes(unsigned member, std::size_t samples) noexcept;
   // Pass 2 (free space), src/occupancy_map.cpp "Carving".
@@ -441,17 +441,21 @@ class OccupancyMap {
   std::array<std::uint8_t, kMaxRaysPerFrame> end_kept_{};
   std::size_t team_samples_ = 0;
   static constexpr std::size_t kMembers = platform::WorkerTeam::kMaxMembers;
+  /// Pass 1's rows are split into kCodeChunks fixed chunks, claimed by the members one at a
+  /// time (a late member only computes fewer of them).
+  static constexpr std::size_t kCodeChunks = 16;
+  std::atomic<std::uint32_t> next_chunk_{0};
   /// Pass 1's codes bucketed by owner (cell % members): owner_samples_[o] holds, from
-  /// member_first_[m] on, the owner_counts_[m][o] sample indices of member m's rows that end
-  /// in a cell of o, in pixel order; so each owner reads only its own.
+  /// chunk_first_[c] on, the owner_counts_[c][o] sample indices of chunk c's rows that end in a
+  /// cell of o, in pixel order; so each owner reads only its own.
   std::array<std::array<std::uint32_t, kMaxRaysPerFrame>, kMembers> owner_samples_{};
-  std::array<std::array<std::uint32_t, kMembers>, kMembers> owner_counts_{};
-  std::array<std::size_t, kMembers> member_first_{};
-  /// Per member: the cells its rows end in, in order of first appearance (so the blocks are
+  std::array<std::array<std::uint32_t, kMembers>, kCodeChunks> owner_counts_{};
+  std::array<std::size_t, kCodeChunks> chunk_first_{};
+  /// Per chunk: the cells its rows end in, in order of first appearance (so the blocks are
   /// acquired in pixel order of first appearance), and the set of them.
-  std::array<std::array<std::uint16_t, kMaxTileCells>, kMembers> member_cells_{};
-  std::array<std::size_t, kMembers> member_cell_count_{};
-  std::array<std::array<std::uint64_t, kMaxTileCells / 64>, kMembers> member_seen_{};
+  std::array<std::array<std::uint16_t, kMaxTileCells>, kCodeChunks> chunk_cells_{};
+  std::array<std::size_t, kCodeChunks> chunk_cell_count_{};
+  std::array<std::array<std::uint64_t, kMaxTileCells / 64>, kCodeChunks> chunk_seen_{};
   std::array<EndMarkCounters, platform::WorkerTeam::kMaxMembers> member_marks_{};
   Block empty_block_{};  ///< stamps 0: what a walk reads in a cell without a block
   // Ray geometry as 4-lane arrays (lane 3 = 0) so the per-pixel maths is one SIMD operation.
