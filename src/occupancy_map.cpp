@@ -706,26 +706,66 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
 }
 
 // --- Pass 1 on the team (carve_tiles > 0) ----------------------------------------------------
-// The same end voxels and map updates as mark_end_points(), in four steps: the members compute
-// the end voxels of their rows into end_codes_; this thread acquires their blocks; each member
-// then runs the pixel-order updates of the cells it owns (cell % members), which decide merges
-// and hits per voxel exactly as the one-thread loop does, since they depend only on the pixels
-// ending in that voxel; this thread lists the kept rays in pixel order. Used when the visit
+// The same end voxels and map updates as mark_end_points(), in three steps: the members claim
+// fixed chunks of rows, compute their end voxels into end_codes_, bucket the sample indices by
+// owner (cell % members) and list the cells each chunk ends in; this thread acquires those
+// cells' blocks, in pixel order of first appearance; each member then runs the pixel-order
+// updates of the cells it owns, reading only its buckets, which decide merges and hits per
+// voxel exactly as the one-thread loop does, since they depend only on the pixels ending in
+// that voxel. Each tile then lists its kept rays itself (list_tile_rays()). Used when the visit
 // of every sampled pixel fits max_rays_per_frame (the cap is a pixel-order rule).
 
 namespace {
 constexpr std::uint32_t kSkipCode = 0xFFFFFFFFu;     ///< closer than min_depth
 constexpr std::uint32_t kOutsideCode = 0xFFFFFFFEu;  ///< outside the local grid (never)
+
+/// Owner of a cell among `members` team members (a mask when their number is a power of two).
+inline unsigned cell_owner(std::uint32_t cell, unsigned members) noexcept {
+  return (members & (members - 1)) == 0 ? cell & (members - 1) : cell % members;
+}
 }  // namespace
 
-void OccupancyMap::compute_end_codes(unsigned member) noexcept {
+/// One member's pass-1 output while it computes its rows: the sample indices bucketed by
+/// owner, and the cells in order of first appearance.
+struct OccupancyMap::EndCodeSink {
+  unsigned members;
+  std::array<std::uint32_t*, kMembers> buckets;
+  std::array<std::uint32_t, kMembers> counts;
+  std::uint64_t* seen;
+  std::uint16_t* cells;
+  std::size_t cell_count;
+  std::uint32_t last_cell;  ///< cell of the last listed pixel (kMaxTileCells: none yet)
+
+  /// A pixel ending outside the grid (never happens): member 0 counts it.
+  void add_outside(std::uint32_t sample) noexcept { buckets[0][counts[0]++] = sample; }
+  void add(std::uint32_t cell, std::uint32_t sample) noexcept {
+    const unsigned o = cell_owner(cell, members);
+    buckets[o][counts[o]++] = sample;
+    if (cell == last_cell) return;
+    last_cell = cell;
+    const std::uint64_t bit = std::uint64_t{1} << (cell & 63u);
+    if ((seen[cell >> 6] & bit) != 0) return;
+    seen[cell >> 6] |= bit;
+    cells[cell_count++] = static_cast<std::uint16_t>(cell);
+  }
+  /// Four pixels ending in the cell of the last one: one bucket.
+  void add_four(std::uint32_t s0) noexcept {
+    const unsigned o = cell_owner(last_cell, members);
+    std::uint32_t* b = &buckets[o][counts[o]];
+    for (std::uint32_t l = 0; l < 4; ++l) b[l] = s0 + l;
+    counts[o] += 4;
+  }
+};
+
+/// End codes of the rows of `chunk` (pass 1 on the team), bucketed by owner.
+void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
   const EndPointConstants c = end_point_constants();
   const int margin = config_.pixel_margin, stride = config_.pixel_stride;
   const int columns = sampled_columns_;
   const int rows = std::max(0, (cam_->height - 2 * margin + stride - 1) / stride);
   const unsigned members = team_.size();
-  const int j0 = static_cast<int>(static_cast<unsigned>(rows) * member / members);
-  const int j1 = static_cast<int>(static_cast<unsigned>(rows) * (member + 1) / members);
+  const auto j0 = static_cast<int>(static_cast<std::size_t>(rows) * chunk / kCodeChunks);
+  const auto j1 = static_cast<int>(static_cast<std::size_t>(rows) * (chunk + 1) / kCodeChunks);
   const LocalGrid grid = local_grid();
   const Eigen::Array4i off_x =
       Eigen::Array4i::Constant((key_base_[0] >> kBlockBits) - grid.origin[0]);
@@ -736,70 +776,106 @@ void OccupancyMap::compute_end_codes(unsigned member) noexcept {
   const Eigen::Array4i dim_x = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[0]));
   const Eigen::Array4i dim_y = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[1]));
   const Eigen::Array4i dim_z = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[2]));
+  const std::size_t band_first = static_cast<std::size_t>(j0) * static_cast<std::size_t>(columns);
+  chunk_first_[chunk] = band_first;
+  EndCodeSink sink{members, {},           {}, chunk_seen_[chunk].data(), chunk_cells_[chunk].data(),
+                   0,       kMaxTileCells};
+  for (unsigned o = 0; o < members; ++o) sink.buckets[o] = &owner_samples_[o][band_first];
+  std::fill_n(sink.seen, kMaxTileCells / 64, std::uint64_t{0});
   for (int j = j0; j < j1; ++j) {
     const int v = margin + j * stride;
     const std::uint16_t* row = team_depth_->row(v);
     const RowDirection row_dir = row_direction_lanes(v);
     const std::size_t first = static_cast<std::size_t>(j) * static_cast<std::size_t>(columns);
     std::uint32_t* codes = &end_codes_[first];
-    std::uint8_t* kept = &end_kept_[first];
+    std::fill_n(&end_kept_[first], columns, std::uint8_t{0});
     for (int k0 = 0; k0 < columns; k0 += 4) {
       const int lanes = std::min(4, columns - k0);
       const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
       const Eigen::Array4i gi = e.blk_x + off_x, gj = e.blk_y + off_y, gk = e.blk_z + off_z;
       const Eigen::Array4i cell = gi + dim_x * (gj + dim_y * gk);
-      const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;
       const Eigen::Array<bool, 4, 1> inside =
           (gi.min(gj).min(gk) >= 0) && (gi < dim_x) && (gj < dim_y) && (gk < dim_z);
+      const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;
+      const auto s0 = static_cast<std::uint32_t>(first + static_cast<std::size_t>(k0));
+      if (lanes == 4 && cell[0] == static_cast<std::int32_t>(sink.last_cell) && inside.all() &&
+          (cell == cell[0]).all() && (e.too_near == 0).all()) {
+        std::memcpy(&codes[k0], code.data(), sizeof(code));  // the common packet
+        sink.add_four(s0);
+        continue;
+      }
       for (int l = 0; l < lanes; ++l) {
-        codes[k0 + l] = e.too_near[l] != 0 ? kSkipCode
-                        : inside[l]        ? static_cast<std::uint32_t>(code[l])
-                                           : kOutsideCode;
-        kept[k0 + l] = 0;
+        const std::uint32_t sample = s0 + static_cast<std::uint32_t>(l);
+        if (e.too_near[l] != 0) {
+          codes[k0 + l] = kSkipCode;
+        } else if (!inside[l]) {
+          codes[k0 + l] = kOutsideCode;
+          sink.add_outside(sample);
+        } else {
+          codes[k0 + l] = static_cast<std::uint32_t>(code[l]);
+          sink.add(static_cast<std::uint32_t>(cell[l]), sample);
+        }
+      }
+    }
+  }
+  owner_counts_[chunk] = sink.counts;
+  chunk_cell_count_[chunk] = sink.cell_count;
+}
+
+/// The blocks of the cells the members' rows end in, in pixel order of first appearance (the
+/// members' lists in row order, cells already acquired skipped). A cell whose block cannot be
+/// had (pool full) is not tried again this frame, whatever the number of members.
+void OccupancyMap::acquire_end_blocks() noexcept {
+  const LocalGrid grid = local_grid();
+  std::fill(acquire_failed_.begin(), acquire_failed_.end(), std::uint64_t{0});
+  for (std::size_t c = 0; c < kCodeChunks; ++c) {
+    for (std::size_t i = 0; i < chunk_cell_count_[c]; ++i) {
+      const std::uint32_t cell = chunk_cells_[c][i];
+      const std::uint64_t bit = std::uint64_t{1} << (cell & 63u);
+      if (grid.cells[cell] != 0 || (acquire_failed_[cell >> 6] & bit) != 0) continue;
+      const std::uint32_t gi = cell % grid.dim[0];
+      const std::uint32_t gj = (cell / grid.dim[0]) % grid.dim[1];
+      const std::uint32_t gk = cell / (grid.dim[0] * grid.dim[1]);
+      if (local_block(grid, grid.origin[0] + static_cast<std::int32_t>(gi),
+                      grid.origin[1] + static_cast<std::int32_t>(gj),
+                      grid.origin[2] + static_cast<std::int32_t>(gk)) == nullptr) {
+        acquire_failed_[cell >> 6] |= bit;
       }
     }
   }
 }
 
-void OccupancyMap::acquire_end_blocks(std::size_t samples) noexcept {
-  const LocalGrid grid = local_grid();
-  std::uint32_t last_cell = 0xFFFFFFFFu;
-  for (std::size_t s = 0; s < samples; ++s) {
-    const std::uint32_t code = end_codes_[s];
-    if (code >= kOutsideCode) continue;
-    const std::uint32_t cell = code >> 10;
-    if (cell == last_cell || grid.cells[cell] != 0) {
-      last_cell = cell;
-      continue;
-    }
-    last_cell = cell;
-    const std::uint32_t gi = cell % grid.dim[0];
-    const std::uint32_t gj = (cell / grid.dim[0]) % grid.dim[1];
-    const std::uint32_t gk = cell / (grid.dim[0] * grid.dim[1]);
-    (void)local_block(grid, grid.origin[0] + static_cast<std::int32_t>(gi),
-                      grid.origin[1] + static_cast<std::int32_t>(gj),
-                      grid.origin[2] + static_cast<std::int32_t>(gk));
-  }
-}
-
+/// Owner `member`'s pixel-order updates: its buckets of every chunk's rows, in row order.
 void OccupancyMap::mark_end_codes(unsigned member, std::size_t samples) noexcept {
-  const unsigned members = team_.size();
   const EndMarkStamps stamps = end_mark_stamps(samples);
   EndMarkCounters k{};
   const std::uint16_t* cells = local_grid_.data();
-  for (std::size_t s = 0; s < samples; ++s) {
-    const std::uint32_t code = end_codes_[s];
-    if (code == kSkipCode) continue;
-    const std::uint32_t cell = code >> 10;
-    if (code == kOutsideCode ? member != 0 : cell % members != member) continue;
-    ++k.pixels;
-    if (code == kOutsideCode || cells[cell] == 0) {
-      ++k.dropped;  // no block: the pool is full
-      ++k.dropped_updates;
-      continue;
+  const std::uint32_t* bucket = owner_samples_[member].data();
+  // kOutsideCode's cell is past every grid cell, so it never has a block.
+  static_assert((kOutsideCode >> 10) >= kMaxTileCells, "outside code names no cell");
+  std::uint32_t last_cell = 0xFFFFFFFFu;
+  Block* block = nullptr;
+  for (std::size_t c = 0; c < kCodeChunks; ++c) {
+    const std::size_t first = chunk_first_[c];
+    const std::size_t end = first + owner_counts_[c][member];
+    for (std::size_t i = first; i < end; ++i) {
+      const std::uint32_t s = bucket[i];
+      const std::uint32_t code = end_codes_[s];
+      const std::uint32_t cell = code >> 10;
+      ++k.pixels;
+      if (cell != last_cell) {
+        last_cell = cell;
+        const std::uint16_t slot = cell < kMaxTileCells ? cells[cell] : std::uint16_t{0};
+        block = slot != 0 ? &pool_[slot - 1u] : nullptr;
+      }
+      if (block == nullptr) {
+        ++k.dropped;  // no block: outside the grid (never) or the pool is full
+        ++k.dropped_updates;
+        continue;
+      }
+      end_kept_[s] =
+          mark_end_voxel(*block, code & 511u, ((code >> 9) & 1u) != 0, stamps, k) ? 1 : 0;
     }
-    Block& block = pool_[cells[cell] - 1u];
-    end_kept_[s] = mark_end_voxel(block, code & 511u, ((code >> 9) & 1u) != 0, stamps, k) ? 1 : 0;
   }
   member_marks_[member] = k;
 }
@@ -810,10 +886,17 @@ void OccupancyMap::mark_end_points_in_team(const DepthView& depth) noexcept {
   const int rows = std::max(0, (cam_->height - 2 * margin + stride - 1) / stride);
   const std::size_t samples = static_cast<std::size_t>(rows) * static_cast<std::size_t>(columns);
   team_depth_ = &depth;
-  team_.run([](void* self,
-               unsigned member) { static_cast<OccupancyMap*>(self)->compute_end_codes(member); },
-            this);
-  acquire_end_blocks(samples);
+  next_chunk_.store(0, std::memory_order_relaxed);
+  team_.run(
+      [](void* self, unsigned) {
+        auto& map = *static_cast<OccupancyMap*>(self);
+        for (std::uint32_t c = map.next_chunk_.fetch_add(1, std::memory_order_relaxed);
+             c < kCodeChunks; c = map.next_chunk_.fetch_add(1, std::memory_order_relaxed)) {
+          map.compute_end_codes(c);
+        }
+      },
+      this);
+  acquire_end_blocks();
   team_samples_ = samples;
   team_.run(
       [](void* self, unsigned member) {
@@ -824,6 +907,7 @@ void OccupancyMap::mark_end_points_in_team(const DepthView& depth) noexcept {
   EndMarkCounters total{};
   for (unsigned m = 0; m < team_.size(); ++m) {
     const EndMarkCounters& k = member_marks_[m];
+    total.rays += k.rays;
     total.pixels += k.pixels;
     total.merged += k.merged;
     total.dropped += k.dropped;
@@ -832,16 +916,8 @@ void OccupancyMap::mark_end_points_in_team(const DepthView& depth) noexcept {
     total.hits += k.hits;
   }
   add_end_mark_counters(total);
-  std::size_t ray_count = 0;
-  const int width = cam_->width;
-  for (std::size_t s = 0; s < samples; ++s) {
-    if (end_kept_[s] == 0) continue;
-    const int j = static_cast<int>(s / static_cast<std::size_t>(columns));
-    const int k = static_cast<int>(s % static_cast<std::size_t>(columns));
-    rays_[ray_count++] =
-        static_cast<std::uint32_t>((margin + j * stride) * width + margin + k * stride);
-  }
-  ray_count_ = ray_count;
+  ray_count_ = total.rays;  // listed by the tiles themselves (list_tile_rays())
+  tiles_list_rays_ = true;
   team_depth_ = nullptr;
 }
 
@@ -854,6 +930,19 @@ namespace {
 constexpr std::uint32_t kOrderLevels = 4;
 /// Keys of order_rays()'s counting sort: tile * kLevelKeys + level.
 constexpr std::size_t kLevelKeys = kOrderLevels + 1;
+/// Sort keys are kept in the top bits of a ray's pixel index (which needs 19) until sorted.
+constexpr int kKeyShift = 24;
+static_assert(kMaxImageWidth * kMaxImageHeight < (1 << kKeyShift), "pixel index bits");
+constexpr std::uint32_t kPixelMask = (1u << kKeyShift) - 1;
+
+/// Level of sampled pixel (column k, row j) in the coarse-to-fine order: the trailing zero bits
+/// k and j share, at most kOrderLevels; the coarsest lattice (level 0) is walked first.
+inline std::uint32_t order_level(std::uint32_t k, std::uint32_t j) noexcept {
+  const std::uint32_t kj = k | j;
+  std::uint32_t level = 0;
+  while (level < kOrderLevels && ((kj >> level) & 1u) == 0) ++level;
+  return kOrderLevels - level;
+}
 }  // namespace
 
 /// Level of each listed ray in the early-stop order and its tile, then a stable counting sort
@@ -873,20 +962,10 @@ std::size_t OccupancyMap::order_rays(int tiles, bool by_level) noexcept {
   const auto columns = static_cast<std::uint32_t>(std::max(sampled_columns_, 1));
   const auto tile_count = static_cast<std::uint32_t>(tiles);
   std::array<std::size_t, kMaxCarveTiles * kLevelKeys + 1> start{};
-  // Sort keys are kept in rays_'s top bits (pixel indices need 19) until the sort is done.
-  constexpr int kKeyShift = 24;
-  static_assert(kMaxImageWidth * kMaxImageHeight < (1 << kKeyShift), "pixel index bits");
   for (std::size_t r = 0; r < ray_count_; ++r) {
     const std::uint32_t u = rays_[r] % width, v = rays_[r] / width;
     const std::uint32_t k = (u - margin) / stride;
-    std::uint32_t level = 0;
-    if (by_level) {
-      // Level of sampled pixel (k, j): the trailing zero bits k and j share, at most
-      // kOrderLevels; the coarsest lattice is walked first.
-      const std::uint32_t kj = k | ((v - margin) / stride);
-      while (level < kOrderLevels && ((kj >> level) & 1u) == 0) ++level;
-      level = kOrderLevels - level;
-    }
+    const std::uint32_t level = by_level ? order_level(k, (v - margin) / stride) : 0;
     const std::uint32_t tile = tiles > 1 ? k * tile_count / columns : 0;
     const std::uint32_t key = tile * static_cast<std::uint32_t>(kLevelKeys) + level;
     rays_[r] |= key << kKeyShift;
@@ -898,13 +977,62 @@ std::size_t OccupancyMap::order_rays(int tiles, bool by_level) noexcept {
     tile.ray_begin = start[static_cast<std::size_t>(t) * kLevelKeys];
     tile.ray_end = start[static_cast<std::size_t>(t + 1) * kLevelKeys];
   }
-  constexpr std::uint32_t kPixelMask = (1u << kKeyShift) - 1;
   for (std::size_t r = 0; r < ray_count_; ++r) {
     const std::uint32_t key = rays_[r] >> kKeyShift;
     rays_[r] &= kPixelMask;
     ordered_rays_[start[key]++] = rays_[r];
   }
   return ray_count_;
+}
+
+/// order_rays() for one tile when pass 1 ran on the team: the tile's kept rays (its column
+/// strip of end_kept_, in pixel order), stably sorted by level into its own range of
+/// ordered_rays_ (rays_'s same range is the scratch). Runs on the member that claimed the tile;
+/// the result is order_rays()'s range for the tile.
+void OccupancyMap::list_tile_rays(std::size_t t) noexcept {
+  TileScratch& tile = tiles_[t];
+  const auto width = static_cast<std::uint32_t>(cam_->width);
+  const auto margin = static_cast<std::uint32_t>(config_.pixel_margin);
+  const auto stride = static_cast<std::uint32_t>(config_.pixel_stride);
+  const auto columns = static_cast<std::size_t>(std::max(sampled_columns_, 0));
+  const std::size_t rows = columns == 0 ? 0 : team_samples_ / columns;
+  const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
+  // Column k is in tile k * tiles / columns: tile t has ceil(t * columns / tiles) onwards.
+  const std::size_t k0 = (t * columns + tiles - 1) / tiles;
+  const std::size_t k1 = ((t + 1) * columns + tiles - 1) / tiles;
+  const std::size_t begin = rows * k0;
+  const bool by_level = config_.free_ray_early_stop > 0;
+  std::array<std::size_t, kLevelKeys + 1> start{};
+  std::size_t n = begin;
+  for (std::size_t j = 0; j < rows; ++j) {
+    const std::uint8_t* kept = &end_kept_[j * columns];
+    const auto v = static_cast<std::uint32_t>(margin + j * stride);
+    const auto take = [&](std::size_t k) {
+      const auto kk = static_cast<std::uint32_t>(k);
+      const std::uint32_t level = by_level ? order_level(kk, static_cast<std::uint32_t>(j)) : 0;
+      rays_[n++] = (v * width + margin + kk * stride) | (level << kKeyShift);
+      ++start[level + 1];
+    };
+    std::size_t k = k0;
+    for (; k + 8 <= k1; k += 8) {
+      std::uint64_t eight = 0;  // few pixels keep a ray (most merge): skip 8 flags at once
+      std::memcpy(&eight, &kept[k], sizeof(eight));
+      if (eight == 0) continue;
+      for (std::size_t i = k; i < k + 8; ++i) {
+        if (kept[i] != 0) take(i);
+      }
+    }
+    for (; k < k1; ++k) {
+      if (kept[k] != 0) take(k);
+    }
+  }
+  for (std::size_t key = 1; key < start.size(); ++key) start[key] += start[key - 1];
+  for (std::size_t r = begin; r < n; ++r) {
+    const std::uint32_t ray = rays_[r];
+    ordered_rays_[begin + start[ray >> kKeyShift]++] = ray & kPixelMask;
+  }
+  tile.ray_begin = begin;
+  tile.ray_end = n;
 }
 
 /// The walk of the ray of `pixel` (false when its depth is too near): from its end voxel to
@@ -1125,6 +1253,7 @@ void OccupancyMap::carve_tile(std::size_t t, const DepthView& depth) noexcept {
   for (std::size_t s = 0; s < tile.cell_count; ++s) tile.slot_of_cell[tile.cells[s]] = 0;
   tile.cell_count = 0;
   tile.counters = CarveCounters{};
+  if (tiles_list_rays_) list_tile_rays(t);
   IndexVec camera{};
   if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
   tile.counters.visits_left = std::max<std::size_t>(
@@ -1133,11 +1262,15 @@ void OccupancyMap::carve_tile(std::size_t t, const DepthView& depth) noexcept {
   TileCursor<kEarlyStop> cursor{*this, local_grid(), tile, hit_stamp,
                                 static_cast<std::uint32_t>(config_.free_ray_early_stop)};
   carve_rays<kEarlyStop>(tile.ray_begin, tile.ray_end, depth, camera, cursor, tile.counters);
+  for (std::size_t s = 0; s < tile.cell_count; ++s) {
+    std::uint64_t any = 0;
+    for (const std::uint64_t w : tile.marks[s]) any |= w;
+    tile.nonempty[s] = any != 0 ? 1 : 0;
+  }
 }
 
-/// The union of the tiles' marks per cell, in a fixed order (tile, then cell entry order),
-/// with the cell's block acquired (allocated, evicting if needed) on this thread. Returns the
-/// cells with any mark.
+/// The cells any tile marked, in a fixed order (tile, then cell entry order), with the cell's
+/// block acquired (allocated, evicting if needed) on this thread. Returns their number.
 std::size_t OccupancyMap::collect_tile_marks() noexcept {
   const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
   std::fill(merged_seen_.begin(), merged_seen_.end(), std::uint64_t{0});
@@ -1150,19 +1283,16 @@ std::size_t OccupancyMap::collect_tile_marks() noexcept {
       const std::uint64_t bit = std::uint64_t{1} << (cell & 63);
       if ((seen & bit) != 0) continue;
       seen |= bit;
-      auto& marks = merged_marks_[m];
-      marks.fill(0);
-      std::uint64_t any = 0;
-      for (std::size_t o = t; o < tiles; ++o) {
+      bool any = false;  // earlier tiles did not enter the cell (it would have been seen)
+      for (std::size_t o = t; o < tiles && !any; ++o) {
         const std::uint16_t set = tiles_[o].slot_of_cell[cell];
-        if (set == 0) continue;
-        for (std::size_t w = 0; w < marks.size(); ++w) marks[w] |= tiles_[o].marks[set - 1u][w];
+        any = set != 0 && tiles_[o].nonempty[set - 1u] != 0;
       }
-      for (const std::uint64_t w : marks) any |= w;
-      if (any == 0) continue;
+      if (!any) continue;
       const std::uint32_t gi = cell % grid.dim[0];
       const std::uint32_t gj = (cell / grid.dim[0]) % grid.dim[1];
       const std::uint32_t gk = cell / (grid.dim[0] * grid.dim[1]);
+      merged_cell_[m] = static_cast<std::uint16_t>(cell);
       merged_block_[m] = local_block(grid, grid.origin[0] + static_cast<std::int32_t>(gi),
                                      grid.origin[1] + static_cast<std::int32_t>(gj),
                                      grid.origin[2] + static_cast<std::int32_t>(gk));
@@ -1172,19 +1302,29 @@ std::size_t OccupancyMap::collect_tile_marks() noexcept {
   return m;
 }
 
-/// Member `member`'s share of the merged cells: one miss per marked voxel (marks never fall on
-/// this frame's hits). Cells are whole blocks, so members never write the same block.
+/// Member `member`'s share of the collected cells: the union of the tiles' marks of the cell,
+/// one miss per marked voxel (marks never fall on this frame's hits). Cells are whole blocks,
+/// so members never write the same block.
 void OccupancyMap::apply_tile_marks(unsigned member) noexcept {
   const std::size_t members = team_.size();
   const std::size_t begin = merged_count_ * member / members;
   const std::size_t end = merged_count_ * (member + 1) / members;
+  const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
   const auto miss_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kMiss);
   const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
   std::size_t updates = 0, dropped = 0;
   for (std::size_t m = begin; m < end; ++m) {
+    const std::uint32_t cell = merged_cell_[m];
+    std::array<const std::uint64_t*, kMaxCarveTiles> sets{};
+    std::size_t set_count = 0;
+    for (std::size_t t = 0; t < tiles; ++t) {
+      const std::uint16_t set = tiles_[t].slot_of_cell[cell];
+      if (set != 0) sets[set_count++] = tiles_[t].marks[set - 1u].data();
+    }
     Block* block = merged_block_[m];
-    for (std::size_t w = 0; w < merged_marks_[m].size(); ++w) {
-      std::uint64_t bits = merged_marks_[m][w];
+    for (std::size_t w = 0; w < kBlockVoxels / 64; ++w) {
+      std::uint64_t bits = 0;
+      for (std::size_t i = 0; i < set_count; ++i) bits |= sets[i][w];
       if (block == nullptr) {
         dropped += static_cast<std::size_t>(__builtin_popcountll(bits));
         continue;
@@ -1206,9 +1346,25 @@ void OccupancyMap::apply_tile_marks(unsigned member) noexcept {
   member_updates_[member] = {updates, dropped};
 }
 
+/// Claim order of the tiles: most voxel visits in the last frame first (longest task first
+/// balances the members best); ties, and the first frame, in tile order. Only who walks which
+/// tile depends on it, never the result.
+void OccupancyMap::order_tile_claims() noexcept {
+  const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
+  for (std::size_t t = 0; t < tiles; ++t) {
+    std::size_t i = t;
+    const std::size_t visits = tiles_[t].counters.visits;
+    for (; i > 0 && tiles_[tile_order_[i - 1]].counters.visits < visits; --i) {
+      tile_order_[i] = tile_order_[i - 1];
+    }
+    tile_order_[i] = static_cast<std::uint8_t>(t);
+  }
+}
+
 void OccupancyMap::carve_tiles_in_team(const DepthView& depth) noexcept {
   const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
-  order_rays(config_.carve_tiles, config_.free_ray_early_stop > 0);
+  if (!tiles_list_rays_) order_rays(config_.carve_tiles, config_.free_ray_early_stop > 0);
+  order_tile_claims();
   team_depth_ = &depth;
   next_tile_.store(0, std::memory_order_relaxed);
   team_.run(
@@ -1216,8 +1372,9 @@ void OccupancyMap::carve_tiles_in_team(const DepthView& depth) noexcept {
         auto& map = *static_cast<OccupancyMap*>(self);
         if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
         const auto count = static_cast<std::uint32_t>(map.config_.carve_tiles);
-        for (std::uint32_t t = map.next_tile_.fetch_add(1, std::memory_order_relaxed); t < count;
-             t = map.next_tile_.fetch_add(1, std::memory_order_relaxed)) {
+        for (std::uint32_t i = map.next_tile_.fetch_add(1, std::memory_order_relaxed); i < count;
+             i = map.next_tile_.fetch_add(1, std::memory_order_relaxed)) {
+          const std::size_t t = map.tile_order_[i];
           if (map.config_.free_ray_early_stop > 0) {
             map.carve_tile<true>(t, *map.team_depth_);
           } else {
@@ -1314,6 +1471,7 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   advance_frame_stamp();
   evictions_this_frame_ = 0;
   ray_count_ = 0;
+  tiles_list_rays_ = false;
   set_frame_geometry(cam, T_map_camera);
 
   // Pass 1: end points. Hits are applied here (once per voxel), so pass 2's misses skip them:

@@ -963,6 +963,30 @@ TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
   EXPECT_EQ(integrate_walk_with_updates(capped, 6), capped_one);
 }
 
+TEST(OccupancyMap, PassOneOnTheTeamMatchesPassOneOnOneThread) {
+  // Pass 1 runs on the team (codes bucketed by owner, blocks acquired in pixel order of first
+  // appearance, each tile listing and ordering its own rays) when every sampled pixel fits the
+  // ray cap, else on one thread (rays listed in pixel order, then order_rays()). A cap one
+  // below the 158 x 118 sampled pixels of the 320 x 240 camera forces the one-thread pass but
+  // drops nothing (merging keeps far fewer rays), so both must give the same frames.
+  constexpr std::size_t kSamples = 158 * 118;
+  for (int early_stop : {0, kEarlyStop}) {
+    for (int tiles : {1, 3, 8}) {
+      SCOPED_TRACE(testing::Message() << "early_stop " << early_stop << " tiles " << tiles);
+      OccupancyMapConfig team;
+      team.free_ray_early_stop = early_stop;
+      team.carve_tiles = tiles;
+      team.threads = 2;
+      team.max_rays_per_frame = kSamples;
+      OccupancyMapConfig one_thread = team;
+      one_thread.max_rays_per_frame = kSamples - 1;
+      EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
+      team.threads = 3;
+      EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
+    }
+  }
+}
+
 TEST(OccupancyMap, TiledCarvingChangesOnlyTheEarlyStoppedMisses) {
   // What tiling changes: a tile's rays stop only against its own tiles' marks, so near the
   // camera, where tiles' rays overlap, they may walk further (or, their tile's earlier rays

@@ -349,8 +349,9 @@ class OccupancyMap {
   void add_end_mark_counters(const EndMarkCounters& k) noexcept;
   void mark_end_points(const DepthView& depth) noexcept;
   void mark_end_points_in_team(const DepthView& depth) noexcept;
-  void compute_end_codes(unsigned member) noexcept;
-  void acquire_end_blocks(std::size_t samples) noexcept;
+  struct EndCodeSink;
+  void compute_end_codes(std::size_t chunk) noexcept;
+  void acquire_end_blocks() noexcept;
   void mark_end_codes(unsigned member, std::size_t samples) noexcept;
   // Pass 2 (free space), src/occupancy_map.cpp "Carving".
   /// Work counters of one ray list's walk, summed into stats_ by the caller.
@@ -364,6 +365,7 @@ class OccupancyMap {
     std::array<std::uint16_t, kMaxTileCells> cells;         ///< cells entered, in order
     std::array<std::array<std::uint64_t, kBlockVoxels / 64>, kMaxTileCells> marks;
     std::array<std::uint64_t, kBlockVoxels / 64> discard;  ///< marks outside the grid (none)
+    std::array<std::uint8_t, kMaxTileCells> nonempty;      ///< mark set holds a mark
     std::size_t cell_count;
     std::size_t ray_begin, ray_end;  ///< its rays in ordered_rays_
     CarveCounters counters;
@@ -373,6 +375,8 @@ class OccupancyMap {
   template <bool kEarlyStop>
   struct TileCursor;
   std::size_t order_rays(int tiles, bool by_level) noexcept;
+  void list_tile_rays(std::size_t tile) noexcept;
+  void order_tile_claims() noexcept;
   bool start_ray(std::uint32_t pixel, const DepthView& depth, const IndexVec& camera, bool from_end,
                  detail::RayWalk& w) const noexcept;
   template <bool kEarlyStop, class Cursor>
@@ -417,10 +421,17 @@ class OccupancyMap {
   const DepthView* team_depth_ = nullptr;  ///< the frame being carved, for the team's task
   std::atomic<std::uint32_t> next_tile_{0};
   std::array<TileScratch, kMaxCarveTiles> tiles_{};
-  /// Union of the tiles' marks per cell, and the cell's block (nullptr: pool full).
-  std::array<std::array<std::uint64_t, kBlockVoxels / 64>, kMaxTileCells> merged_marks_{};
+  /// Tiles in the order the members claim them: most voxel visits in the last frame first.
+  std::array<std::uint8_t, kMaxCarveTiles> tile_order_{};
+  /// Pass 1 ran on the team: each tile lists and orders its own rays from end_kept_.
+  bool tiles_list_rays_ = false;
+  /// Cells with a mark of any tile, in the fixed collection order, and their blocks (nullptr:
+  /// pool full); the members take the union of the tiles' marks of their share of them.
+  std::array<std::uint16_t, kMaxTileCells> merged_cell_{};
   std::array<Block*, kMaxTileCells> merged_block_{};
   std::array<std::uint64_t, kMaxTileCells / 64> merged_seen_{};  ///< cells collected
+  /// Pass 1 on the team: cells whose block could not be acquired this frame (not retried).
+  std::array<std::uint64_t, kMaxTileCells / 64> acquire_failed_{};
   std::size_t merged_count_ = 0;
   /// Per team member: misses applied and updates dropped by apply_tile_marks().
   std::array<std::array<std::size_t, 2>, platform::WorkerTeam::kMaxMembers> member_updates_{};
@@ -429,6 +440,22 @@ class OccupancyMap {
   std::array<std::uint32_t, kMaxRaysPerFrame> end_codes_{};
   std::array<std::uint8_t, kMaxRaysPerFrame> end_kept_{};
   std::size_t team_samples_ = 0;
+  static constexpr std::size_t kMembers = platform::WorkerTeam::kMaxMembers;
+  /// Pass 1's rows are split into kCodeChunks fixed chunks, claimed by the members one at a
+  /// time (a late member only computes fewer of them).
+  static constexpr std::size_t kCodeChunks = 16;
+  std::atomic<std::uint32_t> next_chunk_{0};
+  /// Pass 1's codes bucketed by owner (cell % members): owner_samples_[o] holds, from
+  /// chunk_first_[c] on, the owner_counts_[c][o] sample indices of chunk c's rows that end in a
+  /// cell of o, in pixel order; so each owner reads only its own.
+  std::array<std::array<std::uint32_t, kMaxRaysPerFrame>, kMembers> owner_samples_{};
+  std::array<std::array<std::uint32_t, kMembers>, kCodeChunks> owner_counts_{};
+  std::array<std::size_t, kCodeChunks> chunk_first_{};
+  /// Per chunk: the cells its rows end in, in order of first appearance (so the blocks are
+  /// acquired in pixel order of first appearance), and the set of them.
+  std::array<std::array<std::uint16_t, kMaxTileCells>, kCodeChunks> chunk_cells_{};
+  std::array<std::size_t, kCodeChunks> chunk_cell_count_{};
+  std::array<std::array<std::uint64_t, kMaxTileCells / 64>, kCodeChunks> chunk_seen_{};
   std::array<EndMarkCounters, platform::WorkerTeam::kMaxMembers> member_marks_{};
   Block empty_block_{};  ///< stamps 0: what a walk reads in a cell without a block
   // Ray geometry as 4-lane arrays (lane 3 = 0) so the per-pixel maths is one SIMD operation.
