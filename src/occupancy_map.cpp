@@ -1371,10 +1371,18 @@ void OccupancyMap::carve_tiles_in_team(const DepthView& depth) noexcept {
       [](void* self, unsigned member) {
         auto& map = *static_cast<OccupancyMap*>(self);
         if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
-        const auto count = static_cast<std::uint32_t>(map.config_.carve_tiles);
+        // The side task's parts are claimed first: longest first, and they usually are the
+        // longest (the pipeline's detection against a tile's walk).
+        const SideTask& side = map.side_task_;
+        const std::uint32_t first_tile = side.run != nullptr ? side.parts : 0u;
+        const auto count = static_cast<std::uint32_t>(map.config_.carve_tiles) + first_tile;
         for (std::uint32_t i = map.next_tile_.fetch_add(1, std::memory_order_relaxed); i < count;
              i = map.next_tile_.fetch_add(1, std::memory_order_relaxed)) {
-          const std::size_t t = map.tile_order_[i];
+          if (i < first_tile) {
+            side.run(side.context, i);
+            continue;
+          }
+          const std::size_t t = map.tile_order_[i - first_tile];
           if (map.config_.free_ray_early_stop > 0) {
             map.carve_tile<true>(t, *map.team_depth_);
           } else {
@@ -1451,7 +1459,7 @@ void OccupancyMap::set_frame_geometry(const CameraIntrinsics& cam,
 }
 
 Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& cam,
-                               const Pose& T_map_camera, Stamp stamp) noexcept {
+                               const Pose& T_map_camera, Stamp stamp, SideTask side) noexcept {
   if (!initialized_) return Status::kNotInitialized;
   if (const Status s = validate_depth(depth, cam); !ok(s)) return s;
   if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) return Status::kWrongSize;
@@ -1463,6 +1471,9 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   // Keep the local region well inside the key range.
   if (const Status s = check_pose_range(T_map_camera); !ok(s)) return s;
   if (frames_ > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+  if (side.run != nullptr && (side.parts < 1 || side.parts > SideTask::kMaxParts)) {
+    return Status::kInvalidArgument;
+  }
 
   // Input accepted: from here on the frame always completes.
   stats_ = IntegrationStats{};
@@ -1488,11 +1499,18 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
 
   // Pass 2: free space along each ray with a 3-D DDA, within the visit budget.
   if (config_.carve_tiles > 0) {
+    side_task_ = side;
     carve_tiles_in_team(depth);
-  } else if (config_.free_ray_early_stop > 0) {
-    carve_free_space<true>(depth);
+    side_task_ = SideTask{};
   } else {
-    carve_free_space<false>(depth);
+    if (config_.free_ray_early_stop > 0) {
+      carve_free_space<true>(depth);
+    } else {
+      carve_free_space<false>(depth);
+    }
+    for (unsigned part = 0; side.run != nullptr && part < side.parts; ++part) {
+      side.run(side.context, part);
+    }
   }
   cam_ = nullptr;
   return Status::kOk;

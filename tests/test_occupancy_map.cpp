@@ -1,3 +1,4 @@
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -1069,6 +1070,48 @@ TEST(OccupancyMap, ThreadsAndTilesAreValidated) {
   cfg.threads = 1;
   cfg.carve_tiles = 0;
   EXPECT_EQ(map->init(cfg), Status::kOk);
+}
+
+// integrate()'s side task (the pipeline's detection on the map's team) runs exactly once per
+// accepted frame, never for a refused one, and changes nothing in the map.
+TEST(OccupancyMap, SideTaskRunsOnceForEachAcceptedFrameOnly) {
+  struct Count {
+    std::array<std::atomic<int>, 3> runs{};
+    static void run(void* self, unsigned part) noexcept {
+      static_cast<Count*>(self)->runs[part].fetch_add(1, std::memory_order_relaxed);
+    }
+  };
+  const CameraIntrinsics cam = small_camera(320, 240);
+  const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.f, 0.f);
+  const DepthImage img = render(regression_room(), cam, pose);
+  for (const auto& [tiles, threads] : {std::pair{0, 1}, {4, 1}, {4, 2}, {4, 4}}) {
+    SCOPED_TRACE(testing::Message() << "tiles " << tiles << " threads " << threads);
+    OccupancyMapConfig cfg;
+    cfg.carve_tiles = tiles;
+    cfg.threads = threads;
+    auto with = make_map(cfg);
+    auto without = make_map(cfg);
+    Count count;
+    const OccupancyMap::SideTask side{&Count::run, &count, 3};
+    for (int f = 1; f <= 3; ++f) {
+      const Stamp stamp = static_cast<Stamp>(f) * kFrameNs;
+      ASSERT_EQ(with->integrate(img.view, cam, pose, stamp, side), Status::kOk);
+      ASSERT_EQ(without->integrate(img.view, cam, pose, stamp), Status::kOk);
+      for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), f);
+    }
+    EXPECT_EQ(with->integrate(img.view, cam, pose, kFrameNs, side), Status::kTimeNotIncreasing);
+    DepthView no_pixels = img.view;
+    no_pixels.data = nullptr;
+    EXPECT_NE(with->integrate(no_pixels, cam, pose, 9 * kFrameNs, side), Status::kOk);
+    OccupancyMap::SideTask too_many = side;
+    too_many.parts = OccupancyMap::SideTask::kMaxParts + 1;
+    EXPECT_EQ(with->integrate(img.view, cam, pose, 9 * kFrameNs, too_many),
+              Status::kInvalidArgument);
+    for (const auto& runs : count.runs) {
+      EXPECT_EQ(runs.load(), 3) << "a refused frame must not run the side task";
+    }
+    EXPECT_EQ(with->checksum(), without->checksum());
+  }
 }
 
 TEST(OccupancyMap, NoHeapAllocationWithTwoThreads) {

@@ -137,11 +137,29 @@ class OccupancyMap {
   using WorkerHook = void (*)(unsigned member);
   static void set_worker_hook(WorkerHook hook) noexcept;
 
+  /// Work a caller hands to integrate() to run on the map's team while it carves, e.g. the
+  /// pipeline's detection: run(context, part) for each part in [0, parts), in any order and
+  /// possibly at once on different threads. It must not touch the map.
+  struct SideTask {
+    static constexpr unsigned kMaxParts = 4;
+    void (*run)(void* context, unsigned part) noexcept = nullptr;
+    void* context = nullptr;
+    unsigned parts = 1;  ///< 1..kMaxParts
+  };
+
   /// Integrates one depth frame taken at T_map_camera. On any bad input returns its Status and
   /// changes nothing: kOutOfRange when the camera lies beyond max_abs_translation() (see
   /// check_pose_range()). Never fails for lack of space: far blocks are evicted instead.
+  /// `side` (when set) runs each of its parts exactly once if and only if the frame is
+  /// accepted: during the tiled carving as tasks the members claim (before the tiles),
+  /// otherwise after the map's update on the calling thread. integrate() returns after all
+  /// have finished. kInvalidArgument (nothing run or changed) for parts outside 1..kMaxParts.
   [[nodiscard]] Status integrate(const DepthView& depth, const CameraIntrinsics& cam,
-                                 const Pose& T_map_camera, Stamp stamp) noexcept;
+                                 const Pose& T_map_camera, Stamp stamp, SideTask side) noexcept;
+  [[nodiscard]] Status integrate(const DepthView& depth, const CameraIntrinsics& cam,
+                                 const Pose& T_map_camera, Stamp stamp) noexcept {
+    return integrate(depth, cam, T_map_camera, stamp, SideTask{});
+  }
 
   Occupancy state(const Eigen::Vector3f& p) const noexcept;
   Occupancy state(VoxelKey key) const noexcept;
@@ -419,6 +437,7 @@ class OccupancyMap {
   // --- tiled carving (carve_tiles > 0) ---
   platform::WorkerTeam team_{};
   const DepthView* team_depth_ = nullptr;  ///< the frame being carved, for the team's task
+  SideTask side_task_{};                   ///< integrate()'s side task, claimed before the tiles
   std::atomic<std::uint32_t> next_tile_{0};
   std::array<TileScratch, kMaxCarveTiles> tiles_{};
   /// Tiles in the order the members claim them: most voxel visits in the last frame first.
