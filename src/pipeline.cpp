@@ -114,11 +114,24 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   FrameClock clock;
   clock.start = clock.prev = clock_();
   FrameWork work;
-  const Status map_status = integrate(frame, work);
+  // With map threads, detection runs on the map's team while it carves: it reads only the frame
+  // and its own state, so the outputs are the same; its stage time is then its own duration,
+  // inside the occupancy stage's (docs/pipeline.md, "Map threads").
+  DetectionJob job{this, &frame, &work, {}, false};
+  const bool on_team = config_.map.threads > 1;
+  const Status map_status = integrate(frame, work, on_team ? &job : nullptr);
   if (!ok(map_status)) return reject(frame, map_status, out);
   lap(Stage::kOccupancy, clock);
-  detect(frame, work);
-  lap(Stage::kDetection, clock);
+  if (on_team) {
+    const std::uint64_t start = clock_();
+    if (job.ever_free_ok) ever_free_.annotate(detections_.data(), detections_.size());
+    const std::uint64_t annotated = clock_();
+    record_stage(Stage::kDetection, job.ns[0] + job.ns[1] + (annotated - start), clock);
+    clock.prev = annotated;
+  } else {
+    detect(frame, work);
+    lap(Stage::kDetection, clock);
+  }
   // Map refinement against the occupancy map and the clean history.
   const VoxelLookup cleaned{&history_, &CleanHistory::contains_thunk};
   if (ok(refiner_.refine(map_, cleaned, detections_))) work.refined = refiner_.last_stats().refined;
@@ -140,19 +153,41 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
 
 void Pipeline::lap(Stage stage, FrameClock& clock) noexcept {
   const std::uint64_t now = clock_();
-  const std::uint64_t dt = now > clock.prev ? now - clock.prev : 0;
-  clock.stage_ns[idx(stage)] = dt;
-  StageStats& st = stage_stats_[idx(stage)];
-  const std::uint64_t overruns_before = st.overruns();
-  st.record(dt);
-  counters_.stage_overruns += st.overruns() - overruns_before;
+  record_stage(stage, now > clock.prev ? now - clock.prev : 0, clock);
   clock.prev = now;
 }
 
-Status Pipeline::integrate(const Frame& frame, FrameWork& work) noexcept {
+void Pipeline::record_stage(Stage stage, std::uint64_t ns, FrameClock& clock) noexcept {
+  clock.stage_ns[idx(stage)] = ns;
+  StageStats& st = stage_stats_[idx(stage)];
+  const std::uint64_t overruns_before = st.overruns();
+  st.record(ns);
+  counters_.stage_overruns += st.overruns() - overruns_before;
+}
+
+void Pipeline::detect_on_team(void* job, unsigned part) noexcept {
+  auto& j = *static_cast<DetectionJob*>(job);
+  Pipeline& p = *j.pipeline;
+  const std::uint64_t start = p.clock_();
+  if (part == 0) {
+    p.detect_boxes(*j.frame, *j.work);
+  } else {
+    j.ever_free_ok =
+        ok(p.ever_free_.integrate(j.frame->depth, p.config_.camera, j.frame->T_map_camera));
+  }
+  const std::uint64_t end = p.clock_();
+  j.ns[part] = end > start ? end - start : 0;
+}
+
+Status Pipeline::integrate(const Frame& frame, FrameWork& work, DetectionJob* job) noexcept {
   // check_frame() applied the map's own checks, so it does not refuse the frame; if it ever
-  // did, it changed nothing, and neither has any other stage yet.
-  const Status s = map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp);
+  // did, it changed nothing (the side task runs only for an accepted frame), and neither has
+  // any other stage yet.
+  const OccupancyMap::SideTask side =
+      job != nullptr ? OccupancyMap::SideTask{&Pipeline::detect_on_team, job, DetectionJob::kParts}
+                     : OccupancyMap::SideTask{};
+  const Status s =
+      map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp, side);
   if (!ok(s)) return s;
   const IntegrationStats& ms = map_.last_stats();
   work.rays = ms.rays;
@@ -163,6 +198,14 @@ Status Pipeline::integrate(const Frame& frame, FrameWork& work) noexcept {
 }
 
 void Pipeline::detect(const Frame& frame, FrameWork& work) noexcept {
+  detect_boxes(frame, work);
+  // Where the camera has seen free space: dynamic evidence for each detection (tracker.md).
+  if (ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera))) {
+    ever_free_.annotate(detections_.data(), detections_.size());
+  }
+}
+
+void Pipeline::detect_boxes(const Frame& frame, FrameWork& work) noexcept {
   if (!ok(detector_.detect(frame.depth, config_.camera, frame.T_map_camera, detections_))) {
     detections_.clear();
   }
@@ -171,10 +214,6 @@ void Pipeline::detect(const Frame& frame, FrameWork& work) noexcept {
   (void)fragments_.join(detections_);
   counters_.groups_split +=
       fragments_.split(frame.depth, config_.camera, frame.T_map_camera, detections_);
-  // Where the camera has seen free space: dynamic evidence for each detection (tracker.md).
-  if (ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera))) {
-    ever_free_.annotate(detections_.data(), detections_.size());
-  }
   work.detections = detections_.size();
 }
 

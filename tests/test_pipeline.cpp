@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -296,24 +297,31 @@ struct StateSnapshot {
   std::vector<std::uint32_t> ids;
   std::vector<float> centres;
   std::uint64_t processed;
+  std::vector<float> detections;  ///< the last frame's detection boxes (min, max)
   static StateSnapshot of(const Pipeline& p) {
-    StateSnapshot s{p.map().checksum(), p.tracker().size(), {}, {}, p.counters().frames_processed};
+    StateSnapshot s{
+        p.map().checksum(), p.tracker().size(), {}, {}, p.counters().frames_processed, {}};
     for (std::size_t i = 0; i < p.tracker().size(); ++i) {
       s.ids.push_back(p.tracker().obstacle(i).id);
       for (int a = 0; a < 3; ++a) s.centres.push_back(p.tracker().obstacle(i).box.center()[a]);
+    }
+    for (const Detection& d : p.detections()) {
+      for (int a = 0; a < 3; ++a) s.detections.push_back(d.box.min[a]);
+      for (int a = 0; a < 3; ++a) s.detections.push_back(d.box.max[a]);
     }
     return s;
   }
   bool operator==(const StateSnapshot& o) const {
     return map_checksum == o.map_checksum && tracks == o.tracks && ids == o.ids &&
-           centres == o.centres && processed == o.processed;
+           centres == o.centres && processed == o.processed && detections == o.detections;
   }
 };
 
-TEST(Pipeline, EveryBadInputGetsItsStatusAndChangesNothing) {
+/// Every bad input gets its Status and leaves the map, the tracks and the detections as they
+/// were; with map threads the detection would run on the map's team, so both are checked.
+void expect_bad_inputs_change_nothing(const PipelineConfig& cfg) {
   auto p = std::make_unique<Pipeline>();
   auto out = std::make_unique<FrameOutput>();
-  const PipelineConfig cfg = small_camera_config();
   ASSERT_EQ(p->init(cfg), Status::kOk);
   WalkerScenario s;
   for (int i = 0; i < 20; ++i) ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
@@ -375,6 +383,17 @@ TEST(Pipeline, EveryBadInputGetsItsStatusAndChangesNothing) {
     EXPECT_EQ(p->counters().frames_rejected, ++rejected) << c.name;
   }
   EXPECT_EQ(p->process(good, *out), Status::kOk);  // and the good frame still goes through
+}
+
+TEST(Pipeline, EveryBadInputGetsItsStatusAndChangesNothing) {
+  expect_bad_inputs_change_nothing(small_camera_config());
+}
+
+TEST(Pipeline, EveryBadInputChangesNothingWithMapThreads) {
+  PipelineConfig cfg = small_camera_config();
+  cfg.map.carve_tiles = 4;
+  cfg.map.threads = 2;
+  expect_bad_inputs_change_nothing(cfg);
 }
 
 TEST(Pipeline, SameSequenceGivesBitIdenticalOutputs) {
@@ -544,10 +563,11 @@ TEST(Pipeline, FastAndScalarHistogramKernelsGiveIdenticalOutputs) {
 }
 
 // A fake clock that advances a fixed step at every read makes the budget logic deterministic.
-std::uint64_t g_fake_now = 0;
+// Atomic: with map threads the pipeline reads it on the map's team too, at once.
+std::atomic<std::uint64_t> g_fake_now{0};
 std::uint64_t g_fake_step = 0;
 std::uint64_t fake_clock() {
-  return g_fake_now += g_fake_step;
+  return g_fake_now.fetch_add(g_fake_step) + g_fake_step;
 }
 
 TEST(PipelineBudget, OverrunsAreCountedPerStageAndPerFrame) {
@@ -569,6 +589,30 @@ TEST(PipelineBudget, OverrunsAreCountedPerStageAndPerFrame) {
   EXPECT_EQ(out->total_ns, 1000u * kStageCount);
   EXPECT_EQ(p->counters().budget_overruns, 10u);
   EXPECT_EQ(p->counters().stage_overruns, 10u);
+}
+
+// With map threads the detection runs on the map's team during the carving: its stage time is
+// its own duration (two clock reads around each of its two parts, two around the annotation
+// after them); the parts are inside the occupancy stage's lap. The parts may run at once, so
+// the two together take 2 or 4 steps of the fake clock.
+TEST(PipelineBudget, DetectionOnTheMapTeamIsTimedInsideTheOccupancyStage) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  PipelineConfig cfg = small_camera_config();
+  cfg.map.carve_tiles = 4;
+  cfg.map.threads = 2;
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  g_fake_now = 0;
+  g_fake_step = 1000;
+  p->set_clock(&fake_clock);
+  WalkerScenario s;
+  for (int i = 0; i < 10; ++i) ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk);
+  EXPECT_GE(out->stage_ns[static_cast<std::size_t>(Stage::kDetection)], 3000u);
+  EXPECT_LE(out->stage_ns[static_cast<std::size_t>(Stage::kDetection)], 5000u);
+  EXPECT_EQ(out->stage_ns[static_cast<std::size_t>(Stage::kOccupancy)], 5000u);
+  EXPECT_EQ(out->total_ns, 1000u * (kStageCount + 5));
+  EXPECT_EQ(p->stage_stats(Stage::kDetection).count(), 10u);
+  EXPECT_GT(out->work.detections, 0u);
 }
 
 TEST(PipelineBudget, AdaptiveStrideCoarsensUnderLoadAndRestoresWithSlack) {

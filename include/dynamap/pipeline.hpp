@@ -1,7 +1,8 @@
-// Pipeline: the six stages of dynamap on one thread, in order, with fixed memory and bounded
-// work. init() takes all memory (the object holds it inline, so a Pipeline can be a static
-// global); process() never allocates, throws, locks or does I/O. This is the unit an RTOS-like
-// loop calls once per depth frame.
+// Pipeline: the six stages of dynamap in order, with fixed memory and bounded work; on the
+// calling thread, plus the map's worker team when map.threads > 1 (detection then runs on the
+// team during the map's carving). init() takes all memory (the object holds it inline, so a
+// Pipeline can be a static global); process() never allocates, throws, locks or does I/O. This is
+// the unit an RTOS-like loop calls once per depth frame.
 #pragma once
 
 #include <array>
@@ -123,6 +124,7 @@ class Pipeline {
   const StageStats& frame_stats() const noexcept { return frame_stats_; }
   void reset_timing() noexcept;
   /// Replaces the monotonic clock (tests inject a fake one for deterministic budget logic).
+  /// With map.threads > 1 it is also read on the map's worker threads, at once: thread-safe.
   void set_clock(Clock clock) noexcept { clock_ = clock != nullptr ? clock : default_clock(); }
 
   /// Whole footprint in bytes (the object holds all its memory inline).
@@ -141,8 +143,22 @@ class Pipeline {
     std::uint64_t prev = 0;
     std::array<std::uint64_t, kStageCount> stage_ns{};
   };
+  /// Detection handed to the map's team (map.threads > 1) in two parts that may run at once:
+  /// 0 the detector and its fragment join/split, 1 the ever-free grid's update. Each part is
+  /// timed on the thread that runs it.
+  struct DetectionJob {
+    static constexpr unsigned kParts = 2;
+    Pipeline* pipeline = nullptr;
+    const Frame* frame = nullptr;
+    FrameWork* work = nullptr;
+    std::array<std::uint64_t, kParts> ns{};
+    bool ever_free_ok = false;
+  };
+  static void detect_on_team(void* job, unsigned part) noexcept;
+  void detect_boxes(const Frame& frame, FrameWork& work) noexcept;
   void lap(Stage stage, FrameClock& clock) noexcept;
-  Status integrate(const Frame& frame, FrameWork& work) noexcept;
+  void record_stage(Stage stage, std::uint64_t ns, FrameClock& clock) noexcept;
+  Status integrate(const Frame& frame, FrameWork& work, DetectionJob* job) noexcept;
   void detect(const Frame& frame, FrameWork& work) noexcept;
   void track(const Frame& frame, FrameWork& work) noexcept;
   void clean(const Frame& frame, FrameWork& work) noexcept;
