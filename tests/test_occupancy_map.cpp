@@ -985,6 +985,25 @@ TEST(OccupancyMap, PassOneOnTheTeamMatchesPassOneOnOneThread) {
       EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
     }
   }
+  // Repeats (pixels with the code of their left or upper neighbour) are merged without being
+  // bucketed, and counted as dropped in cells without a block (a tiny pool: blocks that cannot
+  // be had, every frame).
+  OccupancyMapConfig team;
+  team.free_ray_early_stop = kEarlyStop;
+  team.carve_tiles = 4;
+  team.threads = 2;
+  team.max_blocks = 48;
+  team.max_rays_per_frame = kSamples;
+  OccupancyMapConfig one_thread = team;
+  one_thread.max_rays_per_frame = kSamples - 1;
+  EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
+  // Without merging nothing is a repeat (every pixel keeps its ray): the team's pass 1 is the
+  // same for one and two threads.
+  team.merge_rays_per_voxel = false;
+  team.max_blocks = kMaxMapBlocks;
+  OccupancyMapConfig team_one = team;
+  team_one.threads = 1;
+  EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(team_one, 8));
 }
 
 TEST(OccupancyMap, TiledCarvingChangesOnlyTheEarlyStoppedMisses) {
