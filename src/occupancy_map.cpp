@@ -808,28 +808,26 @@ void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
       const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
       const Eigen::Array4i gi = e.blk_x + off_x, gj = e.blk_y + off_y, gk = e.blk_z + off_z;
       const Eigen::Array4i cell = gi + dim_x * (gj + dim_y * gk);
-      // Negative in the lanes outside the grid (integer lanes: Eigen's boolean arrays are not
-      // vectorised).
-      const Eigen::Array4i inside =
-          gi.min(gj).min(gk).min(dim_x - 1 - gi).min(dim_y - 1 - gj).min(last_z - gk);
-      // The code, or kSkipCode (all ones) where too near: min(code, -1) = -1, codes < 2^30.
-      const Eigen::Array4i code = (cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block)
-                                      .min((1 - e.too_near).shiftLeft<30>() - 1);
+      // Non-zero in the lanes outside the grid: integer lanes (Eigen's boolean arrays are not
+      // vectorised), sign bits added (SSE2 has no 32-bit integer min).
+      const Eigen::Array4i outside = gi.shiftRight<31>() + gj.shiftRight<31>() +
+                                     gk.shiftRight<31>() + (dim_x - 1 - gi).shiftRight<31>() +
+                                     (dim_y - 1 - gj).shiftRight<31>() +
+                                     (last_z - gk).shiftRight<31>();
+      const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;
       const auto s0 = static_cast<std::uint32_t>(first + static_cast<std::size_t>(k0));
-      const bool whole = lanes == 4 && inside.minCoeff() >= 0;
-      if (whole) std::memcpy(&codes[k0], code.data(), sizeof(code));  // the common packet
       for (int l = 0; l < lanes; ++l) {
-        const auto x = static_cast<std::uint32_t>(code[l]);
         const std::uint32_t prev = left;
-        left = repeats ? x : kSkipCode;
-        if (x == kSkipCode) {
+        left = kSkipCode;
+        if (e.too_near[l] != 0) {
           codes[k0 + l] = kSkipCode;
-        } else if (!whole && inside[l] < 0) {
+        } else if (outside[l] != 0) {
           codes[k0 + l] = kOutsideCode;
           sink.add_outside(s0 + static_cast<std::uint32_t>(l));
-          left = kSkipCode;
         } else {
+          const auto x = static_cast<std::uint32_t>(code[l]);
           codes[k0 + l] = x;
+          if (repeats) left = x;
           sink.add(x, prev, above[k0 + l], s0 + static_cast<std::uint32_t>(l));
         }
       }
@@ -1286,13 +1284,16 @@ struct OccupancyMap::TileCursor {
   void leave(std::size_t) noexcept {}
   bool visit(std::int32_t li) noexcept {
     std::uint64_t& word = marks[li >> 6];
-    const std::uint64_t bit = std::uint64_t{1} << (li & 63);
-    if ((word & bit) != 0) {
+    const std::uint64_t w = word;
+    // Shifts of the word, not of a mask: one bit test (x86 bt) per visit.
+    if (((w >> (li & 63)) & 1u) != 0) {
       if constexpr (kEarlyStop) return ++run == stop_after;
       return false;
     }
     run = 0;
-    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp) word |= bit;
+    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp) {
+      word = w | std::uint64_t{1} << (li & 63);
+    }
     return false;
   }
 };
