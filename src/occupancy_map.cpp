@@ -816,20 +816,28 @@ void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
                                      (last_z - gk).shiftRight<31>();
       const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;
       const auto s0 = static_cast<std::uint32_t>(first + static_cast<std::size_t>(k0));
+      if (lanes == 4 && e.too_near.sum() == 4) {  // nothing measured (near walls, the floor)
+        std::fill_n(&codes[k0], 4, kSkipCode);
+        left = kSkipCode;
+        continue;
+      }
+      const Eigen::Array4i special = e.too_near - outside;  // 0: a pixel ending in the grid
       for (int l = 0; l < lanes; ++l) {
         const std::uint32_t prev = left;
-        left = kSkipCode;
-        if (e.too_near[l] != 0) {
-          codes[k0 + l] = kSkipCode;
-        } else if (outside[l] != 0) {
-          codes[k0 + l] = kOutsideCode;
-          sink.add_outside(s0 + static_cast<std::uint32_t>(l));
-        } else {
-          const auto x = static_cast<std::uint32_t>(code[l]);
-          codes[k0 + l] = x;
-          if (repeats) left = x;
-          sink.add(x, prev, above[k0 + l], s0 + static_cast<std::uint32_t>(l));
+        if (special[l] != 0) {
+          left = kSkipCode;
+          if (e.too_near[l] != 0) {
+            codes[k0 + l] = kSkipCode;
+          } else {
+            codes[k0 + l] = kOutsideCode;
+            sink.add_outside(s0 + static_cast<std::uint32_t>(l));
+          }
+          continue;
         }
+        const auto x = static_cast<std::uint32_t>(code[l]);
+        codes[k0 + l] = x;
+        left = repeats ? x : kSkipCode;
+        sink.add(x, prev, above[k0 + l], s0 + static_cast<std::uint32_t>(l));
       }
     }
   }
