@@ -150,7 +150,6 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   const std::array<std::int32_t, 3> grid_dim = local_grid_dims(c);
   const std::size_t cells = local_grid_cells(c);
   if (c.carve_tiles > 0 && cells > kMaxTileCells) return Status::kInvalidArgument;
-  no_codes_.fill(~std::uint32_t{0});  // kSkipCode
   if (team_.size() != static_cast<unsigned>(c.threads)) {
     team_.stop();
     platform::ThreadOptions options{};
@@ -727,7 +726,7 @@ inline unsigned cell_owner(std::uint32_t cell, unsigned members) noexcept {
 }  // namespace
 
 /// One member's pass-1 output while it computes its rows: the sample indices bucketed by
-/// owner, the cells in order of first appearance, and the repeats (not bucketed).
+/// owner, and the cells in order of first appearance.
 struct OccupancyMap::EndCodeSink {
   unsigned members;
   std::array<std::uint32_t*, kMembers> buckets;
@@ -736,7 +735,6 @@ struct OccupancyMap::EndCodeSink {
   std::uint16_t* cells;
   std::size_t cell_count;
   std::uint32_t last_cell;  ///< cell of the last listed pixel (kMaxTileCells: none yet)
-  std::size_t repeats;
 
   /// A pixel ending outside the grid (never happens): member 0 counts it.
   void add_outside(std::uint32_t sample) noexcept { buckets[0][counts[0]++] = sample; }
@@ -750,32 +748,24 @@ struct OccupancyMap::EndCodeSink {
     seen[cell >> 6] |= bit;
     cells[cell_count++] = static_cast<std::uint16_t>(cell);
   }
-  /// An inside pixel: a repeat of `left` or `up` is only counted.
-  void add(std::uint32_t code, std::uint32_t left, std::uint32_t up,
-           std::uint32_t sample) noexcept {
-    if (code == left || code == up) {
-      ++repeats;
-    } else {
-      add(code >> 10, sample);
-    }
+  /// Four pixels ending in the cell of the last one: one bucket.
+  void add_four(std::uint32_t s0) noexcept {
+    const unsigned o = cell_owner(last_cell, members);
+    std::uint32_t* b = &buckets[o][counts[o]];
+    for (std::uint32_t l = 0; l < 4; ++l) b[l] = s0 + l;
+    counts[o] += 4;
   }
 };
 
 /// End codes of the rows of `chunk` (pass 1 on the team), bucketed by owner.
-///
-/// With merging on, a pixel whose code (voxel and hit flag) equals that of its left neighbour
-/// or of the pixel above it in the same chunk (a *repeat*) is merged whatever else ends in that
-/// voxel: the earlier pixel left the voxel stamped hit or queued. Repeats are only counted
-/// (their kept flag stays 0), so mark_end_codes() reads only the others; its pixel-order rule
-/// gives the same result, since skipping a pixel that changes nothing changes nothing.
 void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
   const EndPointConstants c = end_point_constants();
   const int margin = config_.pixel_margin, stride = config_.pixel_stride;
   const int columns = sampled_columns_;
   const int rows = std::max(0, (cam_->height - 2 * margin + stride - 1) / stride);
+  const unsigned members = team_.size();
   const auto j0 = static_cast<int>(static_cast<std::size_t>(rows) * chunk / kCodeChunks);
   const auto j1 = static_cast<int>(static_cast<std::size_t>(rows) * (chunk + 1) / kCodeChunks);
-  const bool repeats = config_.merge_rays_per_voxel;
   const LocalGrid grid = local_grid();
   const Eigen::Array4i off_x =
       Eigen::Array4i::Constant((key_base_[0] >> kBlockBits) - grid.origin[0]);
@@ -785,13 +775,12 @@ void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
       Eigen::Array4i::Constant((key_base_[2] >> kBlockBits) - grid.origin[2]);
   const Eigen::Array4i dim_x = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[0]));
   const Eigen::Array4i dim_y = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[1]));
-  const Eigen::Array4i last_z =
-      Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[2]) - 1);
+  const Eigen::Array4i dim_z = Eigen::Array4i::Constant(static_cast<std::int32_t>(grid.dim[2]));
   const std::size_t band_first = static_cast<std::size_t>(j0) * static_cast<std::size_t>(columns);
   chunk_first_[chunk] = band_first;
-  EndCodeSink sink{team_.size(),  {}, {}, chunk_seen_[chunk].data(), chunk_cells_[chunk].data(), 0,
-                   kMaxTileCells, 0};
-  for (unsigned o = 0; o < sink.members; ++o) sink.buckets[o] = &owner_samples_[o][band_first];
+  EndCodeSink sink{members, {},           {}, chunk_seen_[chunk].data(), chunk_cells_[chunk].data(),
+                   0,       kMaxTileCells};
+  for (unsigned o = 0; o < members; ++o) sink.buckets[o] = &owner_samples_[o][band_first];
   std::fill_n(sink.seen, kMaxTileCells / 64, std::uint64_t{0});
   for (int j = j0; j < j1; ++j) {
     const int v = margin + j * stride;
@@ -799,74 +788,38 @@ void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
     const RowDirection row_dir = row_direction_lanes(v);
     const std::size_t first = static_cast<std::size_t>(j) * static_cast<std::size_t>(columns);
     std::uint32_t* codes = &end_codes_[first];
-    // The row above in this chunk (no_codes_: none, or repeats off).
-    const std::uint32_t* above = repeats && j > j0 ? codes - columns : no_codes_.data();
-    std::uint32_t left = kSkipCode;  // the left neighbour's code (kSkipCode: none)
     std::fill_n(&end_kept_[first], columns, std::uint8_t{0});
     for (int k0 = 0; k0 < columns; k0 += 4) {
       const int lanes = std::min(4, columns - k0);
       const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
       const Eigen::Array4i gi = e.blk_x + off_x, gj = e.blk_y + off_y, gk = e.blk_z + off_z;
       const Eigen::Array4i cell = gi + dim_x * (gj + dim_y * gk);
-      // Non-zero in the lanes outside the grid: integer lanes (Eigen's boolean arrays are not
-      // vectorised), sign bits added (SSE2 has no 32-bit integer min).
-      const Eigen::Array4i outside = gi.shiftRight<31>() + gj.shiftRight<31>() +
-                                     gk.shiftRight<31>() + (dim_x - 1 - gi).shiftRight<31>() +
-                                     (dim_y - 1 - gj).shiftRight<31>() +
-                                     (last_z - gk).shiftRight<31>();
+      const Eigen::Array<bool, 4, 1> inside =
+          (gi.min(gj).min(gk) >= 0) && (gi < dim_x) && (gj < dim_y) && (gk < dim_z);
       const Eigen::Array4i code = cell.shiftLeft<10>() + e.hit.shiftLeft<9>() + e.in_block;
       const auto s0 = static_cast<std::uint32_t>(first + static_cast<std::size_t>(k0));
-      if (lanes == 4 && e.too_near.sum() == 4) {  // nothing measured (near walls, the floor)
-        std::fill_n(&codes[k0], 4, kSkipCode);
-        left = kSkipCode;
+      if (lanes == 4 && cell[0] == static_cast<std::int32_t>(sink.last_cell) && inside.all() &&
+          (cell == cell[0]).all() && (e.too_near == 0).all()) {
+        std::memcpy(&codes[k0], code.data(), sizeof(code));  // the common packet
+        sink.add_four(s0);
         continue;
       }
-      const Eigen::Array4i special = e.too_near - outside;  // 0: a pixel ending in the grid
       for (int l = 0; l < lanes; ++l) {
-        const std::uint32_t prev = left;
-        if (special[l] != 0) {
-          left = kSkipCode;
-          if (e.too_near[l] != 0) {
-            codes[k0 + l] = kSkipCode;
-          } else {
-            codes[k0 + l] = kOutsideCode;
-            sink.add_outside(s0 + static_cast<std::uint32_t>(l));
-          }
-          continue;
+        const std::uint32_t sample = s0 + static_cast<std::uint32_t>(l);
+        if (e.too_near[l] != 0) {
+          codes[k0 + l] = kSkipCode;
+        } else if (!inside[l]) {
+          codes[k0 + l] = kOutsideCode;
+          sink.add_outside(sample);
+        } else {
+          codes[k0 + l] = static_cast<std::uint32_t>(code[l]);
+          sink.add(static_cast<std::uint32_t>(cell[l]), sample);
         }
-        const auto x = static_cast<std::uint32_t>(code[l]);
-        codes[k0 + l] = x;
-        left = repeats ? x : kSkipCode;
-        sink.add(x, prev, above[k0 + l], s0 + static_cast<std::uint32_t>(l));
       }
     }
   }
   owner_counts_[chunk] = sink.counts;
   chunk_cell_count_[chunk] = sink.cell_count;
-  chunk_repeats_[chunk] = sink.repeats;
-}
-
-/// The repeats (compute_end_codes()) ending in a cell whose block could not be had: dropped,
-/// not merged, as mark_end_codes() counts the other pixels there. Scanned only in frames that
-/// ran out of blocks.
-std::size_t OccupancyMap::dropped_repeats() const noexcept {
-  const auto columns = static_cast<std::size_t>(std::max(sampled_columns_, 1));
-  const std::size_t rows = team_samples_ / columns;
-  std::size_t dropped = 0;
-  for (std::size_t c = 0; c < kCodeChunks; ++c) {
-    const std::size_t j0 = rows * c / kCodeChunks, j1 = rows * (c + 1) / kCodeChunks;
-    for (std::size_t j = j0; j < j1; ++j) {
-      const std::uint32_t* codes = &end_codes_[j * columns];
-      for (std::size_t k = 0; k < columns; ++k) {
-        const std::uint32_t x = codes[k];
-        if (x >= kOutsideCode) continue;
-        const std::uint32_t cell = x >> 10;
-        if (((acquire_failed_[cell >> 6] >> (cell & 63u)) & 1u) == 0) continue;
-        if ((k > 0 && codes[k - 1] == x) || (j > j0 && codes[k - columns] == x)) ++dropped;
-      }
-    }
-  }
-  return dropped;
 }
 
 /// The blocks of the cells the members' rows end in, in pixel order of first appearance (the
@@ -875,7 +828,6 @@ std::size_t OccupancyMap::dropped_repeats() const noexcept {
 void OccupancyMap::acquire_end_blocks() noexcept {
   const LocalGrid grid = local_grid();
   std::fill(acquire_failed_.begin(), acquire_failed_.end(), std::uint64_t{0});
-  end_blocks_failed_ = false;
   for (std::size_t c = 0; c < kCodeChunks; ++c) {
     for (std::size_t i = 0; i < chunk_cell_count_[c]; ++i) {
       const std::uint32_t cell = chunk_cells_[c][i];
@@ -888,7 +840,6 @@ void OccupancyMap::acquire_end_blocks() noexcept {
                       grid.origin[1] + static_cast<std::int32_t>(gj),
                       grid.origin[2] + static_cast<std::int32_t>(gk)) == nullptr) {
         acquire_failed_[cell >> 6] |= bit;
-        end_blocks_failed_ = true;
       }
     }
   }
@@ -964,13 +915,6 @@ void OccupancyMap::mark_end_points_in_team(const DepthView& depth) noexcept {
     total.updates += k.updates;
     total.hits += k.hits;
   }
-  std::size_t repeats = 0;
-  for (const std::size_t r : chunk_repeats_) repeats += r;
-  const std::size_t dropped = repeats > 0 && end_blocks_failed_ ? dropped_repeats() : 0;
-  total.pixels += repeats;
-  total.merged += repeats - dropped;
-  total.dropped += dropped;
-  total.dropped_updates += dropped;
   add_end_mark_counters(total);
   ray_count_ = total.rays;  // listed by the tiles themselves (list_tile_rays())
   tiles_list_rays_ = true;
@@ -1292,16 +1236,13 @@ struct OccupancyMap::TileCursor {
   void leave(std::size_t) noexcept {}
   bool visit(std::int32_t li) noexcept {
     std::uint64_t& word = marks[li >> 6];
-    const std::uint64_t w = word;
-    // Shifts of the word, not of a mask: one bit test (x86 bt) per visit.
-    if (((w >> (li & 63)) & 1u) != 0) {
+    const std::uint64_t bit = std::uint64_t{1} << (li & 63);
+    if ((word & bit) != 0) {
       if constexpr (kEarlyStop) return ++run == stop_after;
       return false;
     }
     run = 0;
-    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp) {
-      word = w | std::uint64_t{1} << (li & 63);
-    }
+    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp) word |= bit;
     return false;
   }
 };

@@ -986,29 +986,6 @@ TEST(OccupancyMap, PassOneOnTheTeamMatchesPassOneOnOneThread) {
       EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
     }
   }
-  // Repeats (pixels with the code of their left or upper neighbour) are merged without being
-  // bucketed, and counted as dropped in cells without a block (a tiny pool: blocks that cannot
-  // be had, every frame).
-  OccupancyMapConfig team;
-  team.free_ray_early_stop = kEarlyStop;
-  team.carve_tiles = 4;
-  team.threads = 2;
-  team.max_blocks = 48;
-  team.max_rays_per_frame = kSamples;
-  OccupancyMapConfig one_thread = team;
-  one_thread.max_rays_per_frame = kSamples - 1;
-  EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
-  // Without merging nothing is a repeat: every sampled pixel keeps its ray.
-  team.merge_rays_per_voxel = false;
-  team.max_blocks = kMaxMapBlocks;
-  auto map = make_map(team);
-  const CameraIntrinsics cam = small_camera(320, 240);
-  const Pose pose = make_pose(Vec3(-1.5f, -0.8f, 1.1f), -1.2f, 0.f, 0.f);
-  const DepthImage img = render(regression_room(), cam, pose);
-  ASSERT_EQ(map->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
-  EXPECT_EQ(map->last_stats().rays_merged, 0u);
-  EXPECT_GT(map->last_stats().rays, 10'000u);
-  EXPECT_EQ(map->last_stats().rays, map->last_stats().pixels_sampled);
 }
 
 TEST(OccupancyMap, TiledCarvingChangesOnlyTheEarlyStoppedMisses) {

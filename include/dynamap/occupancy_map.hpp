@@ -370,7 +370,6 @@ class OccupancyMap {
   struct EndCodeSink;
   void compute_end_codes(std::size_t chunk) noexcept;
   void acquire_end_blocks() noexcept;
-  std::size_t dropped_repeats() const noexcept;
   void mark_end_codes(unsigned member, std::size_t samples) noexcept;
   // Pass 2 (free space), src/occupancy_map.cpp "Carving".
   /// Work counters of one ray list's walk, summed into stats_ by the caller.
@@ -475,11 +474,6 @@ class OccupancyMap {
   /// acquired in pixel order of first appearance), and the set of them.
   std::array<std::array<std::uint16_t, kMaxTileCells>, kCodeChunks> chunk_cells_{};
   std::array<std::size_t, kCodeChunks> chunk_cell_count_{};
-  /// Per chunk: its pixels merged without being bucketed (compute_end_codes()).
-  std::array<std::size_t, kCodeChunks> chunk_repeats_{};
-  /// A row of "no code" (kSkipCode): what the first row of a chunk compares with.
-  std::array<std::uint32_t, kMaxImageWidth> no_codes_{};
-  bool end_blocks_failed_ = false;  ///< acquire_end_blocks() could not have every block
   std::array<std::array<std::uint64_t, kMaxTileCells / 64>, kCodeChunks> chunk_seen_{};
   std::array<EndMarkCounters, platform::WorkerTeam::kMaxMembers> member_marks_{};
   Block empty_block_{};  ///< stamps 0: what a walk reads in a cell without a block
