@@ -118,7 +118,9 @@ bool config_valid(const OccupancyMapConfig& c) noexcept {
   }
   if (c.free_ray_early_stop < 0) return false;
   if (c.carve_tiles < 0 || c.carve_tiles > kMaxCarveTiles || c.threads < 1 ||
-      c.threads > kMaxMapThreads || (c.threads > 1 && c.carve_tiles == 0)) {
+      c.threads > kMaxMapThreads || (c.threads > 1 && c.carve_tiles == 0) ||
+      c.helper_fifo_priority < 0 || c.helper_fifo_priority > 99 || c.helper_first_cpu < -1 ||
+      c.helper_first_cpu + c.threads - 2 > kMaxCpuIndex) {
     return false;
   }
   return true;
@@ -150,10 +152,15 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   const std::array<std::int32_t, 3> grid_dim = local_grid_dims(c);
   const std::size_t cells = local_grid_cells(c);
   if (c.carve_tiles > 0 && cells > kMaxTileCells) return Status::kInvalidArgument;
-  if (team_.size() != static_cast<unsigned>(c.threads)) {
+  if (team_.size() != static_cast<unsigned>(c.threads) ||
+      team_fifo_priority_ != c.helper_fifo_priority || team_first_cpu_ != c.helper_first_cpu) {
     team_.stop();
     platform::ThreadOptions options{};
     options.name = "dynamap-map";
+    options.fifo_priority = c.helper_fifo_priority;
+    options.cpu = c.helper_first_cpu;
+    team_fifo_priority_ = c.helper_fifo_priority;
+    team_first_cpu_ = c.helper_first_cpu;
     if (const Status s = team_.start(static_cast<unsigned>(c.threads), options); !ok(s)) {
       initialized_ = false;
       return s;

@@ -102,6 +102,8 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(map.free_ray_early_stop), X, "voxels", 0, kInf, kClosed, kOpen, "stop a free ray after this many voxels an earlier ray marked (0: exact walk)"},
     {DYNAMAP_FIELD(map.carve_tiles), X, "", 0, kMaxCarveTiles, kClosed, kClosed, "free-space carving in this many image column strips (0: one walk; the map depends on it, not on threads)"},
     {DYNAMAP_FIELD(map.threads), C, "", 1, kMaxMapThreads, kClosed, kClosed, "threads integrating a frame, the caller included (> 1 needs map.carve_tiles > 0)"},
+    {DYNAMAP_FIELD(map.helper_fifo_priority), X, "", 0, 99, kClosed, kClosed, "SCHED_FIFO priority of the map's helper threads (0: the policy of the thread calling init())"},
+    {DYNAMAP_FIELD(map.helper_first_cpu), X, "", -1, kMaxCpuIndex, kClosed, kClosed, "pin map helper m to CPU helper_first_cpu + m - 1 (-1: no pinning)"},
     // Detector.
     {DYNAMAP_FIELD(detector.bins), X, "", 1, kMaxUMapBins, kClosed, kClosed, "U-map depth bins over [d_min, d_max]"},
     {DYNAMAP_FIELD(detector.d_min), X, "m", 0, kInf, kClosed, kOpen, "nearer depths are not counted in the U-map"},

@@ -96,6 +96,8 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
             "(4096) cells when map.carve_tiles > 0");
   k.require(m.threads == 1 || m.carve_tiles > 0, "map.threads",
             "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
+  k.require(m.helper_first_cpu + m.threads - 2 <= kMaxCpuIndex, "map.helper_first_cpu",
+            "the last helper's CPU (helper_first_cpu + threads - 2) must be <= 1023");
   k.require(c.detector.d_max > c.detector.d_min, "detector.d_max", "must be > detector.d_min");
   k.require(!c.budgets.adaptive_stride || c.budgets.max_pixel_stride >= m.pixel_stride,
             "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");

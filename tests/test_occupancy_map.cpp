@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <set>
@@ -11,6 +13,10 @@
 #include <thread>
 #include <utility>
 #include <vector>
+
+#include <dirent.h>
+#include <sched.h>
+#include <sys/types.h>
 
 #include <gtest/gtest.h>
 
@@ -1112,6 +1118,70 @@ TEST(OccupancyMap, SideTaskRunsOnceForEachAcceptedFrameOnly) {
     }
     EXPECT_EQ(with->checksum(), without->checksum());
   }
+}
+
+/// Thread ids of this process's threads named `name` (empty when names are not visible).
+std::vector<pid_t> threads_named(const char* name) {
+  std::vector<pid_t> ids;
+  DIR* dir = opendir("/proc/self/task");
+  if (dir == nullptr) return ids;
+  while (const dirent* e = readdir(dir)) {
+    if (e->d_name[0] == '.') continue;
+    const std::string comm_path = std::string("/proc/self/task/") + e->d_name + "/comm";
+    char comm[32] = {};
+    if (FILE* f = std::fopen(comm_path.c_str(), "r")) {
+      if (std::fgets(comm, sizeof(comm), f) != nullptr &&
+          std::strncmp(comm, name, std::strlen(name)) == 0) {
+        ids.push_back(static_cast<pid_t>(std::atoi(e->d_name)));
+      }
+      std::fclose(f);
+    }
+  }
+  closedir(dir);
+  return ids;
+}
+
+// map.helper_first_cpu pins helper m to CPU first + m - 1; map.helper_fifo_priority makes the
+// helpers SCHED_FIFO (or init() reports that the process may not); bad values are refused.
+TEST(OccupancyMap, HelperThreadOptionsAreValidatedAndApplied) {
+  OccupancyMapConfig bad;
+  bad.carve_tiles = 4;
+  bad.threads = 2;
+  bad.helper_fifo_priority = 100;
+  auto map = std::make_unique<OccupancyMap>();  // 13 MB: not on the stack
+  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
+  bad.helper_fifo_priority = 0;
+  bad.helper_first_cpu = -2;
+  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
+  bad.helper_first_cpu = kMaxCpuIndex;  // one helper on CPU 1023 is fine, two reach 1024
+  bad.threads = 3;
+  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
+
+  OccupancyMapConfig cfg;
+  cfg.carve_tiles = 4;
+  cfg.threads = 2;
+  cfg.helper_first_cpu = 0;
+  auto pinned = make_map(cfg);  // asserts kOk: CPU 0 exists everywhere
+  const std::vector<pid_t> helpers = threads_named("dynamap-map");
+  if (helpers.empty()) GTEST_SKIP() << "thread names not visible here (emulator?)";
+  ASSERT_EQ(helpers.size(), 1u);
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  ASSERT_EQ(sched_getaffinity(helpers[0], sizeof(set), &set), 0);
+  EXPECT_EQ(CPU_COUNT(&set), 1);
+  EXPECT_TRUE(CPU_ISSET(0, &set));
+
+  cfg.helper_first_cpu = -1;
+  cfg.helper_fifo_priority = 10;
+  const Status fifo = pinned->init(cfg);  // restarts the team with the new options
+  if (fifo == Status::kPermissionDenied) GTEST_SKIP() << "no permission for SCHED_FIFO here";
+  ASSERT_EQ(fifo, Status::kOk);
+  const std::vector<pid_t> fifo_helpers = threads_named("dynamap-map");
+  ASSERT_EQ(fifo_helpers.size(), 1u);
+  EXPECT_EQ(sched_getscheduler(fifo_helpers[0]), SCHED_FIFO);
+  OccupancyMapConfig one_thread;
+  one_thread.carve_tiles = 4;
+  EXPECT_EQ(integrate_walk_with_updates(cfg, 2), integrate_walk_with_updates(one_thread, 2));
 }
 
 TEST(OccupancyMap, NoHeapAllocationWithTwoThreads) {

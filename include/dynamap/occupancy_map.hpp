@@ -34,6 +34,8 @@ inline constexpr std::size_t kMaxVoxelVisitsPerFrame = 32'000'000;
 
 /// Upper bound of OccupancyMapConfig::threads (members of the map's worker team).
 inline constexpr int kMaxMapThreads = static_cast<int>(platform::WorkerTeam::kMaxMembers);
+/// Highest CPU index a map helper may be pinned to (glibc's CPU_SETSIZE - 1).
+inline constexpr int kMaxCpuIndex = 1023;
 /// Upper bound of OccupancyMapConfig::carve_tiles.
 inline constexpr int kMaxCarveTiles = 8;
 /// Tiled carving needs the local block grid to have at most this many cells (the default
@@ -77,6 +79,11 @@ struct OccupancyMapConfig {
   /// Threads integrating a frame, the caller included (1..kMaxMapThreads), created once by
   /// init(). More than 1 needs carve_tiles > 0; the map is bit-identical for every value.
   int threads = 1;
+  /// SCHED_FIFO priority of the helper threads (1..99); 0 (default): they inherit the policy of
+  /// the thread that calls init(). Two threads need a real-time policy on a shared machine.
+  int helper_fifo_priority = 0;
+  /// Pin helper m (1..threads-1) to CPU helper_first_cpu + m - 1; -1 (default): no pinning.
+  int helper_first_cpu = -1;
 };
 
 /// Counters of the last integrate() call (work done, work dropped by caps, pool churn).
@@ -436,6 +443,7 @@ class OccupancyMap {
 
   // --- tiled carving (carve_tiles > 0) ---
   platform::WorkerTeam team_{};
+  int team_fifo_priority_ = 0, team_first_cpu_ = -1;  ///< the options team_ was started with
   const DepthView* team_depth_ = nullptr;  ///< the frame being carved, for the team's task
   SideTask side_task_{};                   ///< integrate()'s side task, claimed before the tiles
   std::atomic<std::uint32_t> next_tile_{0};

@@ -59,7 +59,9 @@ Status WorkerTeam::start(unsigned members, const ThreadOptions& options) noexcep
     // The helper waits for the next generation after this one, even if it starts late.
     h.start_generation = generation_.load(std::memory_order_relaxed);
     members_ = m;  // helpers started so far + the caller, for stop() on failure
-    if (const Status s = h.thread.start(&WorkerTeam::helper_main, &h, options); !ok(s)) {
+    ThreadOptions own = options;
+    if (options.cpu >= 0) own.cpu = options.cpu + static_cast<int>(m) - 1;
+    if (const Status s = h.thread.start(&WorkerTeam::helper_main, &h, own); !ok(s)) {
       stop();
       return s;
     }

@@ -26,9 +26,10 @@ class WorkerTeam {
   WorkerTeam& operator=(const WorkerTeam&) = delete;
   ~WorkerTeam() { stop(); }
 
-  /// Creates members - 1 helper threads (none for members == 1). kInvalidArgument outside
-  /// 1..kMaxMembers or when already started; a thread creation error as WorkerThread::start()
-  /// reports it (the team is then stopped again).
+  /// Creates members - 1 helper threads (none for members == 1) with `options`, except that
+  /// with options.cpu >= 0 helper m (1..members-1) is pinned to CPU options.cpu + m - 1.
+  /// kInvalidArgument outside 1..kMaxMembers or when already started; a thread creation error
+  /// as WorkerThread::start() reports it (the team is then stopped again).
   [[nodiscard]] Status start(unsigned members, const ThreadOptions& options) noexcept;
   /// Runs task(context, m) on every member m and returns when all have returned. Call it from
   /// one thread at a time (the owner's). Without helpers it simply calls task(context, 0).
