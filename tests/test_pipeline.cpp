@@ -57,7 +57,8 @@ struct WalkerScenario {
 };
 
 // Runs the walker scenario and records every output number, for bit-exact comparisons.
-std::uint64_t run_walker_trace(const PipelineConfig& cfg, std::vector<float>& trace, int frames) {
+std::uint64_t run_walker_trace(const PipelineConfig& cfg, std::vector<float>& trace, int frames,
+                               std::size_t* far_hits = nullptr) {
   auto p = std::make_unique<Pipeline>();
   auto out = std::make_unique<FrameOutput>();
   EXPECT_EQ(p->init(cfg), Status::kOk);
@@ -74,6 +75,14 @@ std::uint64_t run_walker_trace(const PipelineConfig& cfg, std::vector<float>& tr
       const PathPrediction& pr = out->predictions[k];
       trace.push_back(static_cast<float>(pr.chosen));
       trace.insert(trace.end(), pr.probability.begin(), pr.probability.end());
+    }
+    trace.push_back(static_cast<float>(p->far_field().last_hits()));
+    if (far_hits != nullptr) *far_hits += p->far_field().last_hits();
+  }
+  // The far-field layer's whole grid (cell centres within 12 m).
+  for (float x = -11.9f; x < 12.0f; x += 0.2f) {
+    for (float y = -11.9f; y < 12.0f; y += 0.2f) {
+      trace.push_back(static_cast<float>(p->far_field().evidence(Eigen::Vector2f(x, y))));
     }
   }
   return p->map().checksum();
@@ -690,8 +699,10 @@ TEST(Pipeline, MapThreadsGiveBitIdenticalOutputsOver120Frames) {
   PipelineConfig cfg = small_camera_config();
   cfg.map.carve_tiles = 4;
   std::vector<float> one;
-  const std::uint64_t one_map = run_walker_trace(cfg, one, 120);
+  std::size_t far_hits = 0;  // the far-field layer's walls are part of the trace
+  const std::uint64_t one_map = run_walker_trace(cfg, one, 120, &far_hits);
   ASSERT_FALSE(one.empty());
+  EXPECT_GT(far_hits, 0u);
   for (int threads = 2; threads <= kMaxMapThreads; ++threads) {
     SCOPED_TRACE(threads);
     cfg.map.threads = threads;
