@@ -3,22 +3,26 @@
 // frames. Prints a table; timing goals are judged from it, never in unit tests.
 //
 //   ./build/release/bench/bench_pipeline [frames=300] [passes=3] [--wall]
-//       [--threads=1,2,4 [--tiles=4]]
+//       [--threads=1,2,4 [--tiles=4] [--period-ms=P]]
 //
 // --threads runs the one-walk pipeline (map.carve_tiles 0, one thread) and then, for each
 // listed count, map.threads = count with map.carve_tiles = --tiles (default 4), pass by pass in
 // turn (so load drift hits them alike), always on the wall clock, and prints the medians and
-// their ratios to the first entry.
+// their ratios to the first entry. Frames run back to back unless --period-ms starts them P ms
+// apart, as a camera delivers them: the map's helpers then fall asleep between frames (they
+// spin only briefly), and each frame pays for waking them.
 //
 // Stage times are the pipeline's own timers. By default they read the thread's CPU clock, so a
 // shared, loaded machine does not inflate them with time spent descheduled; --wall uses the
 // monotonic wall clock the pipeline uses in production.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "dynamap/pipeline.hpp"
@@ -29,7 +33,8 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: bench_pipeline [frames=300] [passes=3] [--wall] [--threads=1,2,4 [--tiles=4]]\n";
+    "usage: bench_pipeline [frames=300] [passes=3] [--wall] [--threads=1,2,4 [--tiles=4] "
+    "[--period-ms=P]]\n";
 
 using namespace dynamap;
 
@@ -81,7 +86,7 @@ std::uint64_t wall_clock() {
 
 /// Median wall-clock occupancy and whole-frame times per map thread count, passes in turn.
 int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames, int passes,
-                    int tiles, const std::vector<int>& threads) {
+                    int tiles, const std::vector<int>& threads, int period_ms) {
   struct Run {
     const char* label;
     int tiles, threads;
@@ -98,7 +103,12 @@ int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames,
       config.map.threads = r.threads;
       if (!ok(pipeline->init(config))) return 1;
       pipeline->set_clock(&wall_clock);
+      auto next = std::chrono::steady_clock::now();
       for (int i = 0; i < frames; ++i) {
+        if (period_ms > 0) {
+          next += std::chrono::milliseconds(period_ms);
+          std::this_thread::sleep_until(next);
+        }
         Frame f;
         f.stamp = static_cast<Stamp>(i + 1) * 33'333'333ULL;
         f.T_map_camera = seq.poses[static_cast<std::size_t>(i)];
@@ -116,7 +126,8 @@ int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames,
     std::sort(v.begin(), v.end());
     return ms(v[v.size() / 2]);
   };
-  std::printf("\nmap threads, wall clock, %d frames x %d passes in turn\n", frames - 1, passes);
+  std::printf("\nmap threads, wall clock, %d frames x %d passes in turn, %s\n", frames - 1, passes,
+              period_ms > 0 ? "frames paced" : "frames back to back");
   std::printf(
       "| map | threads | occupancy median (ms) | ratio | detection median (ms) | frame median "
       "(ms) | ratio |\n|---|---|---|---|---|---|---|\n");
@@ -139,6 +150,7 @@ int main(int argc, char** argv) {
   std::vector<int> numbers;
   std::vector<int> threads;
   int tiles = 4;
+  int period_ms = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--wall") {
@@ -151,6 +163,8 @@ int main(int argc, char** argv) {
       }
     } else if (arg.rfind("--tiles=", 0) == 0) {
       tiles = std::atoi(arg.c_str() + 8);
+    } else if (arg.rfind("--period-ms=", 0) == 0) {
+      period_ms = std::atoi(arg.c_str() + 12);
     } else if (!arg.empty() && arg.find_first_not_of("0123456789") == std::string::npos &&
                numbers.size() < 2) {
       numbers.push_back(std::atoi(argv[i]));
@@ -163,9 +177,11 @@ int main(int argc, char** argv) {
   const int passes = numbers.size() > 1 ? numbers[1] : 3;
   const bool threads_ok = std::all_of(threads.begin(), threads.end(),
                                       [](int n) { return n >= 1 && n <= kMaxMapThreads; });
-  if (frames < 2 || passes < 1 || tiles < 1 || tiles > kMaxCarveTiles || !threads_ok) {
+  if (frames < 2 || passes < 1 || tiles < 1 || tiles > kMaxCarveTiles || !threads_ok ||
+      period_ms < 0 || period_ms > 1000) {
     std::fprintf(stderr,
-                 "bench_pipeline: need frames >= 2, passes >= 1, tiles 1..%d, threads 1..%d\n%s",
+                 "bench_pipeline: need frames >= 2, passes >= 1, tiles 1..%d, threads 1..%d, "
+                 "period-ms 0..1000\n%s",
                  static_cast<int>(kMaxCarveTiles), static_cast<int>(kMaxMapThreads), kUsage);
     return 2;
   }
@@ -173,7 +189,8 @@ int main(int argc, char** argv) {
   PipelineConfig config;
   std::printf("rendering %d frames of 640x480 ...\n", frames);
   const Sequence seq = make_sequence(config.camera, frames);
-  if (!threads.empty()) return compare_threads(config, seq, frames, passes, tiles, threads);
+  if (!threads.empty())
+    return compare_threads(config, seq, frames, passes, tiles, threads, period_ms);
 
   auto pipeline = std::make_unique<Pipeline>();
   auto out = std::make_unique<FrameOutput>();

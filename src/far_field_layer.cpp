@@ -60,6 +60,7 @@ void FarFieldLayer::reset() noexcept {
   for (Cell& c : cells_) c = Cell{};
   frame_ = 0;
   last_hits_ = 0;
+  begun_ = false;
 }
 
 FarFieldLayer::Cell* FarFieldLayer::cell_for_write(const Eigen::Vector2f& p) noexcept {
@@ -147,24 +148,6 @@ Status check_update_input(const DepthView& depth, const CameraIntrinsics& camera
 }
 }  // namespace
 
-// One frame's camera geometry, height band and exclusion discs, shared by its columns.
-struct FarFieldLayer::FrameGeometry {
-  const CameraIntrinsics* camera = nullptr;
-  Eigen::Matrix3f R;
-  Eigen::Vector3f origin;
-  Eigen::Vector2f o2;
-  Eigen::Vector3f row_step;  ///< map-frame ray change per image row (unit depth)
-  float z_lo = 0.0f, z_hi = 0.0f, z_tall = 0.0f;
-  std::size_t bins = 0;
-  float inv_fx = 0.0f;
-  const FarFieldExclusion* exclusions = nullptr;
-  std::size_t count = 0;
-  // The discs' bearings from the camera: a column only tests the discs its bearing passes
-  // (usually none), not every disc at every pixel.
-  std::array<float, kFarFieldMaxExclusions> disc_angle{};
-  std::array<float, kFarFieldMaxExclusions> disc_half{};
-};
-
 float FarFieldLayer::sigma(float d) const noexcept {
   return config_.noise_margin + config_.noise_quadratic * d * d;
 }
@@ -217,14 +200,14 @@ std::size_t FarFieldLayer::column_discs(const FrameGeometry& g, const Eigen::Vec
   return n_near;
 }
 
-Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthView& depth,
-                                          int u) noexcept {
+Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthView& depth, int u,
+                                          ColumnBins& h) const noexcept {
   const FarFieldConfig& c = config_;
   const CameraIntrinsics& camera = *g.camera;
   const int stride = c.pixel_stride;
-  std::fill(bin_count_.begin(), bin_count_.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
-  std::fill(bin_tall_.begin(), bin_tall_.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
-  for (std::size_t b = 0; b < g.bins; ++b) bin_sum_[b].setZero();
+  std::fill(h.count.begin(), h.count.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
+  std::fill(h.tall.begin(), h.tall.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
+  for (std::size_t b = 0; b < g.bins; ++b) h.sum[b].setZero();
   const float xn = (static_cast<float>(u) - camera.cx) * g.inv_fx;
   // Map-frame ray direction of pixel (u, v) with unit depth: col_dir + (v - cy) * row_step.
   const Eigen::Vector3f col_dir = g.R.col(0) * xn + g.R.col(2);
@@ -259,20 +242,20 @@ Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthVie
       continue;
     }
     const std::size_t b = std::min(g.bins - 1, static_cast<std::size_t>(range / c.cell_size));
-    if (bin_count_[b] < 0xFFFF) ++bin_count_[b];
-    if (tall && bin_tall_[b] < 0xFFFF) ++bin_tall_[b];
-    bin_sum_[b] += q;
+    if (h.count[b] < 0xFFFF) ++h.count[b];
+    if (tall && h.tall[b] < 0xFFFF) ++h.tall[b];
+    h.sum[b] += q;
   }
   return beyond;
 }
 
-std::size_t FarFieldLayer::densest_window(std::size_t b, std::size_t w,
+std::size_t FarFieldLayer::densest_window(const ColumnBins& h, std::size_t b, std::size_t w,
                                           std::size_t bins) const noexcept {
   std::size_t peak = b;
   int peak_n = -1;
   for (std::size_t k = b; k <= std::min(bins - 1, b + 2 * w); ++k) {
     int m = 0;
-    for (std::size_t j = k; j < std::min(bins, k + w); ++j) m += bin_count_[j];
+    for (std::size_t j = k; j < std::min(bins, k + w); ++j) m += h.count[j];
     if (m > peak_n) {
       peak_n = m;
       peak = k;
@@ -281,20 +264,22 @@ std::size_t FarFieldLayer::densest_window(std::size_t b, std::size_t w,
   return peak;
 }
 
-void FarFieldLayer::mark_column(const FrameGeometry& g, const Eigen::Vector2f& beyond) noexcept {
+FarFieldLayer::ColumnSurfaces FarFieldLayer::find_surfaces(
+    const FrameGeometry& g, const ColumnBins& h, const Eigen::Vector2f& beyond) const noexcept {
   const FarFieldConfig& c = config_;
   const float bin = c.cell_size;
   const std::size_t bins = g.bins;
+  ColumnSurfaces s;
+  s.beyond = beyond;
   // The first two surfaces of the column: the nearest window of range bins, as wide as the
   // noise at that range, holding at least min_pixels points.
-  int surfaces = 0;
   std::size_t b = 0;
-  while (b < bins && surfaces < 2) {
+  while (b < bins && s.count < 2) {
     const float r_b = (static_cast<float>(b) + 0.5f) * bin;
     const std::size_t w =
         std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(sigma(r_b) / bin)));
     int n = 0;
-    for (std::size_t k = b; k < std::min(bins, b + w); ++k) n += bin_count_[k];
+    for (std::size_t k = b; k < std::min(bins, b + w); ++k) n += h.count[k];
     if (n < c.min_pixels) {
       ++b;
       continue;
@@ -302,24 +287,33 @@ void FarFieldLayer::mark_column(const FrameGeometry& g, const Eigen::Vector2f& b
     // The noise spreads a surface along the ray, and its near tail triggers first: the
     // surface is the densest window in the next two windows, and its position the centroid of
     // the points in that window (a wider one would mix in a walker just in front of a wall).
-    const std::size_t lo = densest_window(b, w, bins);
+    const std::size_t lo = densest_window(h, b, w, bins);
     const std::size_t end = std::min(bins, lo + w);
     int total = 0;
     int tall = 0;
     Eigen::Vector2f sum = Eigen::Vector2f::Zero();
     for (std::size_t k = lo; k < end; ++k) {
-      total += bin_count_[k];
-      tall += bin_tall_[k];
-      sum += bin_sum_[k];
+      total += h.count[k];
+      tall += h.tall[k];
+      sum += h.sum[k];
     }
-    mark_surface(g.o2, sum / static_cast<float>(total), surfaces == 0, tall > 0);
-    ++surfaces;
+    const auto i = static_cast<std::size_t>(s.count++);
+    s.hit[i] = sum / static_cast<float>(total);
+    s.tall[i] = tall > 0;
     // The far tail of this surface is not a second one.
     b = end + 2 * w;
   }
-  if (surfaces == 0 && std::isfinite(beyond.x())) {
-    const Eigen::Vector2f ray = beyond - g.o2;
-    add_free(g.o2, g.o2 + ray * (c.max_range / ray.norm()));
+  return s;
+}
+
+void FarFieldLayer::mark_column(const FrameGeometry& g, const ColumnSurfaces& s) noexcept {
+  for (int i = 0; i < s.count; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    mark_surface(g.o2, s.hit[k], i == 0, s.tall[k]);
+  }
+  if (s.count == 0 && std::isfinite(s.beyond.x())) {
+    const Eigen::Vector2f ray = s.beyond - g.o2;
+    add_free(g.o2, g.o2 + ray * (config_.max_range / ray.norm()));
   }
 }
 
@@ -343,18 +337,47 @@ void FarFieldLayer::mark_surface(const Eigen::Vector2f& o2, const Eigen::Vector2
 Status FarFieldLayer::update(const DepthView& depth, const CameraIntrinsics& camera,
                              const Pose& T_map_camera, const FarFieldExclusion* exclusions,
                              std::size_t count) noexcept {
+  const Status s = begin_update(depth, camera, T_map_camera, exclusions, count);
+  if (!ok(s)) return s;
+  bin_columns(0, 1);
+  finish_update();
+  return Status::kOk;
+}
+
+Status FarFieldLayer::begin_update(const DepthView& depth, const CameraIntrinsics& camera,
+                                   const Pose& T_map_camera, const FarFieldExclusion* exclusions,
+                                   std::size_t count) noexcept {
   if (!initialised_) return Status::kNotInitialized;
   const Status s = check_update_input(depth, camera, T_map_camera, exclusions, count);
   if (!ok(s)) return s;
+  geometry_ = frame_geometry(camera, T_map_camera, exclusions, count);
+  depth_ = depth;
+  const int stride = config_.pixel_stride;
+  columns_ = static_cast<std::size_t>((depth.width - stride / 2 + stride - 1) / stride);
+  begun_ = true;
+  return Status::kOk;
+}
+
+void FarFieldLayer::bin_columns(unsigned part, unsigned parts) noexcept {
+  if (!begun_ || parts < 1 || parts > kFarFieldMaxBinParts || part >= parts) return;
+  // Contiguous column ranges: neighbouring columns share the image's cache lines.
+  const std::size_t first = columns_ * part / parts;
+  const std::size_t end = columns_ * (part + 1) / parts;
+  const int stride = config_.pixel_stride;
+  ColumnBins& h = bins_[part];
+  for (std::size_t i = first; i < end; ++i) {
+    const int u = stride / 2 + static_cast<int>(i) * stride;
+    const Eigen::Vector2f beyond = bin_column(geometry_, depth_, u, h);
+    surfaces_[i] = find_surfaces(geometry_, h, beyond);
+  }
+}
+
+void FarFieldLayer::finish_update() noexcept {
+  if (!begun_) return;
+  begun_ = false;
   ++frame_;
   last_hits_ = 0;
-  const FrameGeometry g = frame_geometry(camera, T_map_camera, exclusions, count);
-  const int stride = config_.pixel_stride;
-  for (int u = stride / 2; u < depth.width; u += stride) {
-    const Eigen::Vector2f beyond = bin_column(g, depth, u);
-    mark_column(g, beyond);
-  }
-  return Status::kOk;
+  for (std::size_t i = 0; i < columns_; ++i) mark_column(geometry_, surfaces_[i]);
 }
 
 }  // namespace dynamap

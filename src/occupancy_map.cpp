@@ -1416,6 +1416,30 @@ void OccupancyMap::carve_tiles_in_team(const DepthView& depth) noexcept {
   team_depth_ = nullptr;
 }
 
+Status OccupancyMap::run_on_team(const SideTask& task) noexcept {
+  if (task.run == nullptr || task.parts < 1 || task.parts > SideTask::kMaxParts) {
+    return Status::kInvalidArgument;
+  }
+  if (team_.size() <= 1) {
+    for (unsigned part = 0; part < task.parts; ++part) task.run(task.context, part);
+    return Status::kOk;
+  }
+  side_task_ = task;
+  next_tile_.store(0, std::memory_order_relaxed);
+  team_.run(
+      [](void* self, unsigned) {
+        auto& map = *static_cast<OccupancyMap*>(self);
+        const SideTask& side = map.side_task_;
+        for (std::uint32_t i = map.next_tile_.fetch_add(1, std::memory_order_relaxed);
+             i < side.parts; i = map.next_tile_.fetch_add(1, std::memory_order_relaxed)) {
+          side.run(side.context, i);
+        }
+      },
+      this);
+  side_task_ = SideTask{};
+  return Status::kOk;
+}
+
 /// Per-frame constants of both passes: depth classes, ray directions, key base, block grid.
 void OccupancyMap::set_frame_geometry(const CameraIntrinsics& cam,
                                       const Pose& T_map_camera) noexcept {

@@ -142,7 +142,7 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   lap(Stage::kCleaning, clock);
   // Prediction for dynamic tracks, after the far-field layer has taken this frame's far pixels.
   const std::size_t n_dyn = collect_dynamic(frame);
-  const FarFieldLayer* far = update_far_field(frame, n_dyn);
+  const FarFieldLayer* far = update_far_field(frame, n_dyn, on_team);
   lap(Stage::kFarField, clock);
   out.num_predictions = predict(frame, n_dyn, far, out);
   work.predictions = out.num_predictions;
@@ -247,7 +247,12 @@ std::size_t Pipeline::collect_dynamic(const Frame& frame) noexcept {
   return n_dyn;
 }
 
-const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t n_dyn) noexcept {
+void Pipeline::bin_far_field_on_team(void* pipeline, unsigned part) noexcept {
+  static_cast<Pipeline*>(pipeline)->far_field_.bin_columns(part, kFarFieldMaxBinParts);
+}
+
+const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t n_dyn,
+                                                bool on_team) noexcept {
   if (!config_.far_field.enabled) return nullptr;
   // The dynamic tracks' pixels are not walls. Walkers not (yet) labelled dynamic are kept out by
   // the layer's wall_height; static tracks are often pieces of a wall, and cutting their pixels
@@ -258,10 +263,17 @@ const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t 
     far_exclusions_[k].radius =
         predictor_input_[k].footprint_radius + config_.predictor.clearance.self_margin;
   }
-  if (!ok(far_field_.update(frame.depth, config_.camera, frame.T_map_camera, far_exclusions_.data(),
-                            n_ex))) {
+  if (!ok(far_field_.begin_update(frame.depth, config_.camera, frame.T_map_camera,
+                                  far_exclusions_.data(), n_ex))) {
     return nullptr;
   }
+  // With map threads its column binning is shared by the map's team; the grid is written in
+  // column order after, so the layer is the same for every thread count.
+  static_assert(kFarFieldMaxBinParts <= OccupancyMap::SideTask::kMaxParts);
+  const OccupancyMap::SideTask bin{&Pipeline::bin_far_field_on_team, this,
+                                   on_team ? kFarFieldMaxBinParts : 1u};
+  if (!on_team || !ok(map_.run_on_team(bin))) far_field_.bin_columns(0, 1);
+  far_field_.finish_update();
   return &far_field_;
 }
 

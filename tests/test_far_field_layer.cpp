@@ -234,7 +234,85 @@ TEST(FarFieldLayer, ConfigAndBadInputAreRefusedAndChangeNothing) {
   EXPECT_FALSE(layer->occupied(Eigen::Vector2f(8.05f, 0.0f)));
 }
 
-TEST(FarFieldLayer, UpdateAllocatesNothing) {
+/// Every cell's evidence and wall state within 12 m of the origin, and the last frame's hits.
+std::vector<int> layer_state(const FarFieldLayer& layer) {
+  std::vector<int> state;
+  for (float x = -11.9f; x < 12.0f; x += 0.2f) {
+    for (float y = -11.9f; y < 12.0f; y += 0.2f) {
+      const Eigen::Vector2f p(x, y);
+      state.push_back(layer.evidence(p) * 2 + (layer.occupied(p) ? 1 : 0));
+    }
+  }
+  state.push_back(static_cast<int>(layer.last_hits()));
+  state.push_back(static_cast<int>(layer.frames()));
+  return state;
+}
+
+TEST(FarFieldLayer, BinningInPartsEndsBitForBitAsUpdate) {
+  const CameraIntrinsics cam = camera();
+  // Walls at 6-9 m, a tall box and a walker in front of them; the camera turns and moves, and
+  // the discs change (none to three, one of them beside the camera).
+  test::WorldScene scene;
+  scene.boxes.push_back(wall_across(8.0f, 4.0f));
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(-7.0f, -6.0f, 0.0f), Eigen::Vector3f(-6.8f, 6.0f, 2.5f)});
+  scene.boxes.push_back(Box3{Eigen::Vector3f(6.0f, 1.0f, 0.0f), Eigen::Vector3f(6.5f, 1.5f, 2.4f)});
+  scene.boxes.push_back(test::person_at(6.5f, -1.0f));
+  const std::vector<FarFieldExclusion> discs = {{Eigen::Vector2f(6.2f, 1.2f), 0.5f},
+                                                {Eigen::Vector2f(6.5f, -1.0f), 0.4f},
+                                                {Eigen::Vector2f(0.3f, 0.2f), 0.4f}};
+  for (unsigned parts = 1; parts <= kFarFieldMaxBinParts; ++parts) {
+    SCOPED_TRACE(parts);
+    auto whole = make_layer();
+    auto in_parts = make_layer();
+    std::vector<std::uint16_t> pixels;
+    int frames_with_walls = 0;
+    for (int f = 0; f < 16; ++f) {
+      const float yaw = 0.15f * static_cast<float>(f % 8) - 0.5f + (f >= 12 ? 3.14159265f : 0.0f);
+      const Pose pose =
+          test::level_camera(Eigen::Vector3f(0.05f * static_cast<float>(f), 0.0f, 1.3f), yaw);
+      const DepthView view = test::render(scene, cam, pose, pixels);
+      add_range_noise(pixels, 0.02f, 0.0042f, static_cast<std::uint32_t>(f + 1));  // in place
+      const std::size_t n = static_cast<std::size_t>(f % 4);
+      ASSERT_EQ(whole->update(view, cam, pose, discs.data(), n), Status::kOk);
+      ASSERT_EQ(in_parts->begin_update(view, cam, pose, discs.data(), n), Status::kOk);
+      for (unsigned p = parts; p-- > 0;) in_parts->bin_columns(p, parts);  // any order
+      in_parts->finish_update();
+      ASSERT_EQ(layer_state(*whole), layer_state(*in_parts)) << "frame " << f;
+      frames_with_walls += whole->last_hits() > 0 ? 1 : 0;
+    }
+    EXPECT_GE(frames_with_walls, 6);  // the comparison is not one of empty grids
+  }
+}
+
+TEST(FarFieldLayer, StepsWithoutABegunFrameDoNothing) {
+  const CameraIntrinsics cam = camera();
+  std::vector<std::uint16_t> pixels;
+  test::WorldScene scene;
+  scene.boxes.push_back(wall_across(8.0f, 3.0f));
+  const DepthView view = test::render(scene, cam, kLookingAtWall, pixels);
+  FarFieldLayer l0;
+  EXPECT_EQ(l0.begin_update(view, cam, kLookingAtWall, nullptr, 0), Status::kNotInitialized);
+  auto layer = make_layer();
+  layer->bin_columns(0, 1);
+  layer->finish_update();
+  EXPECT_EQ(layer->frames(), 0u);
+  EXPECT_EQ(layer->begin_update(view, cam, kLookingAtWall, nullptr, 1), Status::kNullData);
+  layer->finish_update();  // the refused frame was not taken
+  EXPECT_EQ(layer->frames(), 0u);
+  ASSERT_EQ(layer->begin_update(view, cam, kLookingAtWall, nullptr, 0), Status::kOk);
+  layer->bin_columns(1, 1);  // no such part
+  layer->bin_columns(0, kFarFieldMaxBinParts + 1);
+  EXPECT_EQ(layer->frames(), 0u);  // nothing written before finish_update()
+  layer->bin_columns(0, 1);
+  layer->finish_update();
+  EXPECT_EQ(layer->frames(), 1u);
+  EXPECT_TRUE(layer->occupied(Eigen::Vector2f(8.05f, 0.0f)));
+  layer->finish_update();  // once per begun frame
+  EXPECT_EQ(layer->frames(), 1u);
+}
+
+TEST(FarFieldLayer, UpdateAndItsStepsAllocateNothing) {
   const CameraIntrinsics cam = camera();
   std::vector<std::uint16_t> pixels;
   test::WorldScene scene;
@@ -245,7 +323,13 @@ TEST(FarFieldLayer, UpdateAllocatesNothing) {
   std::size_t allocations = 0;
   {
     test::AllocationGuard guard;
-    for (int f = 0; f < 5; ++f) (void)layer->update(view, cam, kLookingAtWall, &disc, 1);
+    for (int f = 0; f < 5; ++f) {
+      (void)layer->update(view, cam, kLookingAtWall, &disc, 1);
+      (void)layer->begin_update(view, cam, kLookingAtWall, &disc, 1);
+      for (unsigned p = 0; p < kFarFieldMaxBinParts; ++p)
+        layer->bin_columns(p, kFarFieldMaxBinParts);
+      layer->finish_update();
+    }
     allocations = guard.allocations();
   }
   EXPECT_EQ(allocations, 0u);

@@ -1120,6 +1120,44 @@ TEST(OccupancyMap, SideTaskRunsOnceForEachAcceptedFrameOnly) {
   }
 }
 
+TEST(OccupancyMap, RunOnTeamRunsEachPartOnceAndLeavesTheMapAlone) {
+  struct Count {
+    std::array<std::atomic<int>, OccupancyMap::SideTask::kMaxParts> runs{};
+    static void run(void* self, unsigned part) noexcept {
+      static_cast<Count*>(self)->runs[part].fetch_add(1, std::memory_order_relaxed);
+    }
+  };
+  const CameraIntrinsics cam = small_camera(320, 240);
+  const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.f, 0.f);
+  const DepthImage img = render(regression_room(), cam, pose);
+  for (const auto& [tiles, threads] : {std::pair{0, 1}, {4, 2}, {4, 4}}) {
+    SCOPED_TRACE(testing::Message() << "tiles " << tiles << " threads " << threads);
+    OccupancyMapConfig cfg;
+    cfg.carve_tiles = tiles;
+    cfg.threads = threads;
+    auto with = make_map(cfg);
+    auto without = make_map(cfg);
+    Count count;
+    for (int f = 1; f <= 3; ++f) {
+      const Stamp stamp = static_cast<Stamp>(f) * kFrameNs;
+      ASSERT_EQ(with->integrate(img.view, cam, pose, stamp), Status::kOk);
+      ASSERT_EQ(without->integrate(img.view, cam, pose, stamp), Status::kOk);
+      ASSERT_EQ(with->run_on_team({&Count::run, &count, OccupancyMap::SideTask::kMaxParts}),
+                Status::kOk);
+      for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), f);
+    }
+    EXPECT_EQ(with->run_on_team({&Count::run, &count, 0}), Status::kInvalidArgument);
+    EXPECT_EQ(with->run_on_team({&Count::run, &count, OccupancyMap::SideTask::kMaxParts + 1}),
+              Status::kInvalidArgument);
+    EXPECT_EQ(with->run_on_team({nullptr, &count, 1}), Status::kInvalidArgument);
+    for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), 3) << "a refused task ran";
+    // The team still integrates afterwards, and the tasks changed nothing in the map.
+    ASSERT_EQ(with->integrate(img.view, cam, pose, 4 * kFrameNs), Status::kOk);
+    ASSERT_EQ(without->integrate(img.view, cam, pose, 4 * kFrameNs), Status::kOk);
+    EXPECT_EQ(with->checksum(), without->checksum());
+  }
+}
+
 /// Thread ids of this process's threads named `name` (empty when names are not visible).
 std::vector<pid_t> threads_named(const char* name) {
   std::vector<pid_t> ids;

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include "dynamap/constants.hpp"
 #include "dynamap/status.hpp"
 #include "dynamap/types.hpp"
 
@@ -28,6 +29,8 @@ inline constexpr std::size_t kFarFieldCellsPerSide = 128;
 inline constexpr std::size_t kFarFieldMaxBins = 128;
 /// Discs (walkers) whose pixels are not walls.
 inline constexpr std::size_t kFarFieldMaxExclusions = 64;
+/// Parts a frame's column binning can be split into (bin_columns()), each with its own scratch.
+inline constexpr unsigned kFarFieldMaxBinParts = 4;
 
 struct FarFieldConfig {
   bool enabled = true;         ///< false: no update, the predictor uses the map alone
@@ -71,6 +74,18 @@ class FarFieldLayer {
   [[nodiscard]] Status update(const DepthView& depth, const CameraIntrinsics& camera,
                               const Pose& T_map_camera, const FarFieldExclusion* exclusions,
                               std::size_t count) noexcept;
+  /// update() in three steps, so its per-column binning (most of its work) can be shared by
+  /// threads: begin_update() checks the input (update()'s errors, nothing changed) and takes
+  /// the frame, whose image and exclusions must stay valid until finish_update();
+  /// bin_columns(part, parts) bins the part-th of `parts` (1..kFarFieldMaxBinParts) column
+  /// ranges — different parts may run at once on different threads; finish_update() writes the
+  /// grid from every column in order. The layer ends exactly as update() leaves it. Without a
+  /// begun frame, bin_columns() and finish_update() do nothing.
+  [[nodiscard]] Status begin_update(const DepthView& depth, const CameraIntrinsics& camera,
+                                    const Pose& T_map_camera, const FarFieldExclusion* exclusions,
+                                    std::size_t count) noexcept;
+  void bin_columns(unsigned part, unsigned parts) noexcept;
+  void finish_update() noexcept;
 
   /// Is the cell holding map point `p` (top view) a remembered wall? Inline: the predictor asks
   /// this for every footprint point of every sample of every path.
@@ -132,7 +147,37 @@ class FarFieldLayer {
   void add_hit(const Eigen::Vector2f& p) noexcept;
   void add_free(const Eigen::Vector2f& from, const Eigen::Vector2f& to) noexcept;
   // update() in steps (far_field_layer.cpp).
-  struct FrameGeometry;
+  /// One frame's camera geometry, height band and exclusion discs, shared by its columns.
+  struct FrameGeometry {
+    const CameraIntrinsics* camera = nullptr;
+    Eigen::Matrix3f R = Eigen::Matrix3f::Identity();
+    Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+    Eigen::Vector2f o2 = Eigen::Vector2f::Zero();
+    Eigen::Vector3f row_step = Eigen::Vector3f::Zero();  ///< ray change per image row (unit depth)
+    float z_lo = 0.0f, z_hi = 0.0f, z_tall = 0.0f;
+    std::size_t bins = 0;
+    float inv_fx = 0.0f;
+    const FarFieldExclusion* exclusions = nullptr;
+    std::size_t count = 0;
+    // The discs' bearings from the camera: a column only tests the discs its bearing passes
+    // (usually none), not every disc at every pixel.
+    std::array<float, kFarFieldMaxExclusions> disc_angle{};
+    std::array<float, kFarFieldMaxExclusions> disc_half{};
+  };
+  /// One column's range-bin histogram: count, points above wall_height, sum of x, y.
+  struct ColumnBins {
+    std::array<std::uint16_t, kFarFieldMaxBins> count{};
+    std::array<std::uint16_t, kFarFieldMaxBins> tall{};
+    std::array<Eigen::Vector2f, kFarFieldMaxBins> sum{};
+  };
+  /// A column's first two surfaces (centroid, any point above wall_height) and, when it has
+  /// none, the last point beyond max_range (NaN when none).
+  struct ColumnSurfaces {
+    std::array<Eigen::Vector2f, 2> hit{};
+    std::array<bool, 2> tall{};
+    int count = 0;
+    Eigen::Vector2f beyond = Eigen::Vector2f::Zero();
+  };
   using DiscList = std::array<std::size_t, kFarFieldMaxExclusions>;
   float sigma(float d) const noexcept;  ///< depth noise margin at range d
   FrameGeometry frame_geometry(const CameraIntrinsics& camera, const Pose& T_map_camera,
@@ -142,9 +187,13 @@ class FarFieldLayer {
                            DiscList& near) const noexcept;
   /// Fills the range-bin histogram of column u; returns the last point beyond the range (NaN
   /// when none).
-  Eigen::Vector2f bin_column(const FrameGeometry& g, const DepthView& depth, int u) noexcept;
-  std::size_t densest_window(std::size_t b, std::size_t w, std::size_t bins) const noexcept;
-  void mark_column(const FrameGeometry& g, const Eigen::Vector2f& beyond) noexcept;
+  Eigen::Vector2f bin_column(const FrameGeometry& g, const DepthView& depth, int u,
+                             ColumnBins& h) const noexcept;
+  std::size_t densest_window(const ColumnBins& h, std::size_t b, std::size_t w,
+                             std::size_t bins) const noexcept;
+  ColumnSurfaces find_surfaces(const FrameGeometry& g, const ColumnBins& h,
+                               const Eigen::Vector2f& beyond) const noexcept;
+  void mark_column(const FrameGeometry& g, const ColumnSurfaces& s) noexcept;
   void mark_surface(const Eigen::Vector2f& o2, const Eigen::Vector2f& hit, bool first,
                     bool tall) noexcept;
 
@@ -155,10 +204,14 @@ class FarFieldLayer {
   std::uint32_t frame_ = 0;
   std::size_t last_hits_ = 0;
   std::array<Cell, kFarFieldCellsPerSide * kFarFieldCellsPerSide> cells_{};
-  // Scratch for one column (no allocation): count and sum of x, y per range bin.
-  std::array<std::uint16_t, kFarFieldMaxBins> bin_count_{};
-  std::array<std::uint16_t, kFarFieldMaxBins> bin_tall_{};  // points above wall_height
-  std::array<Eigen::Vector2f, kFarFieldMaxBins> bin_sum_{};
+  // The frame begin_update() took: its geometry, image, and every sampled column's surfaces;
+  // one histogram scratch per part (no allocation).
+  bool begun_ = false;
+  FrameGeometry geometry_{};
+  DepthView depth_{};
+  std::size_t columns_ = 0;
+  std::array<ColumnSurfaces, kMaxImageWidth> surfaces_{};
+  std::array<ColumnBins, kFarFieldMaxBinParts> bins_{};
 };
 
 }  // namespace dynamap

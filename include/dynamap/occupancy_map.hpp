@@ -168,6 +168,12 @@ class OccupancyMap {
     return integrate(depth, cam, T_map_camera, stamp, SideTask{});
   }
 
+  /// Runs `task`'s parts on the map's team (the calling thread is one of its members), each
+  /// exactly once, and returns when all have finished; without a team (threads 1), in order on
+  /// the calling thread. For other work of a frame, outside integrate(); it must not touch the
+  /// map. kInvalidArgument (nothing run) without a function or for parts outside 1..kMaxParts.
+  [[nodiscard]] Status run_on_team(const SideTask& task) noexcept;
+
   Occupancy state(const Eigen::Vector3f& p) const noexcept;
   Occupancy state(VoxelKey key) const noexcept;
   float log_odds(const Eigen::Vector3f& p) const noexcept;  ///< 0 when unknown

@@ -155,6 +155,7 @@ class Pipeline {
     bool ever_free_ok = false;
   };
   static void detect_on_team(void* job, unsigned part) noexcept;
+  static void bin_far_field_on_team(void* pipeline, unsigned part) noexcept;
   void detect_boxes(const Frame& frame, FrameWork& work) noexcept;
   void lap(Stage stage, FrameClock& clock) noexcept;
   void record_stage(Stage stage, std::uint64_t ns, FrameClock& clock) noexcept;
@@ -163,7 +164,8 @@ class Pipeline {
   void track(const Frame& frame, FrameWork& work) noexcept;
   void clean(const Frame& frame, FrameWork& work) noexcept;
   std::size_t collect_dynamic(const Frame& frame) noexcept;
-  const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn) noexcept;
+  const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn,
+                                        bool on_team) noexcept;
   std::size_t predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
                       FrameOutput& out) noexcept;
   void finish(const Frame& frame, const FrameClock& clock, const FrameWork& work,
