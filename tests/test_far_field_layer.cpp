@@ -67,6 +67,13 @@ bool occupied_near(const FarFieldLayer& layer, const Eigen::Vector2f& p, float r
 }
 
 const Pose kLookingAtWall = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), 0.0f);
+
+/// The wall across x = 8 m, 6 m wide, seen from kLookingAtWall.
+DepthView wall_at_8m(const CameraIntrinsics& cam, std::vector<std::uint16_t>& pixels) {
+  test::WorldScene scene;
+  scene.boxes.push_back(wall_across(8.0f, 3.0f));
+  return test::render(scene, cam, kLookingAtWall, pixels);
+}
 const Pose kLookingAway = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.3f), 3.14159265f);
 
 TEST(FarFieldLayer, WallSeenOnceAt8mIsRememberedOutOfView) {
@@ -214,9 +221,7 @@ TEST(FarFieldLayer, ConfigAndBadInputAreRefusedAndChangeNothing) {
 
   const CameraIntrinsics cam = camera();
   std::vector<std::uint16_t> pixels;
-  test::WorldScene scene;
-  scene.boxes.push_back(wall_across(8.0f, 3.0f));
-  const DepthView view = test::render(scene, cam, kLookingAtWall, pixels);
+  const DepthView view = wall_at_8m(cam, pixels);
   EXPECT_EQ(l0.update(view, cam, kLookingAtWall, nullptr, 0), Status::kNotInitialized);
   auto layer = make_layer();
   EXPECT_EQ(layer->update(view, cam, kLookingAtWall, nullptr, 1), Status::kNullData);
@@ -288,9 +293,7 @@ TEST(FarFieldLayer, BinningInPartsEndsBitForBitAsUpdate) {
 TEST(FarFieldLayer, StepsWithoutABegunFrameDoNothing) {
   const CameraIntrinsics cam = camera();
   std::vector<std::uint16_t> pixels;
-  test::WorldScene scene;
-  scene.boxes.push_back(wall_across(8.0f, 3.0f));
-  const DepthView view = test::render(scene, cam, kLookingAtWall, pixels);
+  const DepthView view = wall_at_8m(cam, pixels);
   FarFieldLayer l0;
   EXPECT_EQ(l0.begin_update(view, cam, kLookingAtWall, nullptr, 0), Status::kNotInitialized);
   auto layer = make_layer();
@@ -315,9 +318,7 @@ TEST(FarFieldLayer, StepsWithoutABegunFrameDoNothing) {
 TEST(FarFieldLayer, UpdateAndItsStepsAllocateNothing) {
   const CameraIntrinsics cam = camera();
   std::vector<std::uint16_t> pixels;
-  test::WorldScene scene;
-  scene.boxes.push_back(wall_across(8.0f, 3.0f));
-  const DepthView view = test::render(scene, cam, kLookingAtWall, pixels);
+  const DepthView view = wall_at_8m(cam, pixels);
   auto layer = make_layer();
   const FarFieldExclusion disc{Eigen::Vector2f(5.0f, 0.0f), 0.4f};
   std::size_t allocations = 0;

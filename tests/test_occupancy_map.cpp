@@ -1078,32 +1078,39 @@ TEST(OccupancyMap, ThreadsAndTilesAreValidated) {
   EXPECT_EQ(map->init(cfg), Status::kOk);
 }
 
+/// Counts the runs of each part of a task handed to the map's team.
+struct PartCounter {
+  std::array<std::atomic<int>, OccupancyMap::SideTask::kMaxParts> runs{};
+  static void run(void* self, unsigned part) noexcept {
+    static_cast<PartCounter*>(self)->runs[part].fetch_add(1, std::memory_order_relaxed);
+  }
+};
+
+/// Two maps with the same tiles and threads: one is given tasks, the other is the reference.
+std::pair<std::unique_ptr<OccupancyMap>, std::unique_ptr<OccupancyMap>> map_pair(int tiles,
+                                                                                 int threads) {
+  OccupancyMapConfig cfg;
+  cfg.carve_tiles = tiles;
+  cfg.threads = threads;
+  return {make_map(cfg), make_map(cfg)};
+}
+
 // integrate()'s side task (the pipeline's detection on the map's team) runs exactly once per
 // accepted frame, never for a refused one, and changes nothing in the map.
 TEST(OccupancyMap, SideTaskRunsOnceForEachAcceptedFrameOnly) {
-  struct Count {
-    std::array<std::atomic<int>, 3> runs{};
-    static void run(void* self, unsigned part) noexcept {
-      static_cast<Count*>(self)->runs[part].fetch_add(1, std::memory_order_relaxed);
-    }
-  };
   const CameraIntrinsics cam = small_camera(320, 240);
   const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.f, 0.f);
   const DepthImage img = render(regression_room(), cam, pose);
   for (const auto& [tiles, threads] : {std::pair{0, 1}, {4, 1}, {4, 2}, {4, 4}}) {
     SCOPED_TRACE(testing::Message() << "tiles " << tiles << " threads " << threads);
-    OccupancyMapConfig cfg;
-    cfg.carve_tiles = tiles;
-    cfg.threads = threads;
-    auto with = make_map(cfg);
-    auto without = make_map(cfg);
-    Count count;
-    const OccupancyMap::SideTask side{&Count::run, &count, 3};
+    auto [with, without] = map_pair(tiles, threads);
+    PartCounter count;
+    const OccupancyMap::SideTask side{&PartCounter::run, &count, 3};
     for (int f = 1; f <= 3; ++f) {
       const Stamp stamp = static_cast<Stamp>(f) * kFrameNs;
       ASSERT_EQ(with->integrate(img.view, cam, pose, stamp, side), Status::kOk);
       ASSERT_EQ(without->integrate(img.view, cam, pose, stamp), Status::kOk);
-      for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), f);
+      for (unsigned p = 0; p < 3; ++p) EXPECT_EQ(count.runs[p].load(), f);
     }
     EXPECT_EQ(with->integrate(img.view, cam, pose, kFrameNs, side), Status::kTimeNotIncreasing);
     DepthView no_pixels = img.view;
@@ -1113,41 +1120,33 @@ TEST(OccupancyMap, SideTaskRunsOnceForEachAcceptedFrameOnly) {
     too_many.parts = OccupancyMap::SideTask::kMaxParts + 1;
     EXPECT_EQ(with->integrate(img.view, cam, pose, 9 * kFrameNs, too_many),
               Status::kInvalidArgument);
-    for (const auto& runs : count.runs) {
-      EXPECT_EQ(runs.load(), 3) << "a refused frame must not run the side task";
+    for (unsigned p = 0; p < 3; ++p) {
+      EXPECT_EQ(count.runs[p].load(), 3) << "a refused frame must not run the side task";
     }
+    EXPECT_EQ(count.runs[3].load(), 0);
     EXPECT_EQ(with->checksum(), without->checksum());
   }
 }
 
+// run_on_team() (the pipeline's far-field binning) runs each part once and leaves the map alone.
 TEST(OccupancyMap, RunOnTeamRunsEachPartOnceAndLeavesTheMapAlone) {
-  struct Count {
-    std::array<std::atomic<int>, OccupancyMap::SideTask::kMaxParts> runs{};
-    static void run(void* self, unsigned part) noexcept {
-      static_cast<Count*>(self)->runs[part].fetch_add(1, std::memory_order_relaxed);
-    }
-  };
   const CameraIntrinsics cam = small_camera(320, 240);
   const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.f, 0.f);
   const DepthImage img = render(regression_room(), cam, pose);
   for (const auto& [tiles, threads] : {std::pair{0, 1}, {4, 2}, {4, 4}}) {
     SCOPED_TRACE(testing::Message() << "tiles " << tiles << " threads " << threads);
-    OccupancyMapConfig cfg;
-    cfg.carve_tiles = tiles;
-    cfg.threads = threads;
-    auto with = make_map(cfg);
-    auto without = make_map(cfg);
-    Count count;
+    auto [with, without] = map_pair(tiles, threads);
+    PartCounter count;
     for (int f = 1; f <= 3; ++f) {
       const Stamp stamp = static_cast<Stamp>(f) * kFrameNs;
       ASSERT_EQ(with->integrate(img.view, cam, pose, stamp), Status::kOk);
       ASSERT_EQ(without->integrate(img.view, cam, pose, stamp), Status::kOk);
-      ASSERT_EQ(with->run_on_team({&Count::run, &count, OccupancyMap::SideTask::kMaxParts}),
+      ASSERT_EQ(with->run_on_team({&PartCounter::run, &count, OccupancyMap::SideTask::kMaxParts}),
                 Status::kOk);
       for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), f);
     }
-    EXPECT_EQ(with->run_on_team({&Count::run, &count, 0}), Status::kInvalidArgument);
-    EXPECT_EQ(with->run_on_team({&Count::run, &count, OccupancyMap::SideTask::kMaxParts + 1}),
+    EXPECT_EQ(with->run_on_team({&PartCounter::run, &count, 0}), Status::kInvalidArgument);
+    EXPECT_EQ(with->run_on_team({&PartCounter::run, &count, OccupancyMap::SideTask::kMaxParts + 1}),
               Status::kInvalidArgument);
     EXPECT_EQ(with->run_on_team({nullptr, &count, 1}), Status::kInvalidArgument);
     for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), 3) << "a refused task ran";
