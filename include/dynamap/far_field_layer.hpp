@@ -76,7 +76,7 @@ class FarFieldLayer {
                               std::size_t count) noexcept;
   /// update() in three steps, so its per-column binning (most of its work) can be shared by
   /// threads: begin_update() checks the input (update()'s errors, nothing changed) and takes
-  /// the frame, whose image and exclusions must stay valid until finish_update();
+  /// the frame, whose image, camera and exclusions must stay valid until finish_update();
   /// bin_columns(part, parts) bins the part-th of `parts` (1..kFarFieldMaxBinParts) column
   /// ranges — different parts may run at once on different threads; finish_update() writes the
   /// grid from every column in order. The layer ends exactly as update() leaves it. Without a
