@@ -270,8 +270,7 @@ const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t 
   // With map threads its column binning is shared by the map's team; the grid is written in
   // column order after, so the layer is the same for every thread count.
   static_assert(kFarFieldMaxBinParts <= OccupancyMap::SideTask::kMaxParts);
-  const OccupancyMap::SideTask bin{&Pipeline::bin_far_field_on_team, this,
-                                   on_team ? kFarFieldMaxBinParts : 1u};
+  const OccupancyMap::SideTask bin{&Pipeline::bin_far_field_on_team, this, kFarFieldMaxBinParts};
   if (!on_team || !ok(map_.run_on_team(bin))) far_field_.bin_columns(0, 1);
   far_field_.finish_update();
   return &far_field_;
