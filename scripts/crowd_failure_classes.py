@@ -15,7 +15,8 @@ gets one class, the first that applies:
   partly hidden    visible < 0.9
   alone            the rest
 and prints per class: counted, missed, mean position and velocity error and their shares; the
-track ids matched per person; and for group members matched to a track nearer another person.
+same errors by the matched track's age (frames since its first row); the track ids matched per
+person; and for group members matched to a track nearer another person.
 Standard library only."""
 import collections
 import math
@@ -38,6 +39,9 @@ def rotate(q, v):
             v[2] + w * tz + (x * ty - y * tx))
 
 
+AGE_BINS = ((0, 5), (5, 10), (10, 20), (20, 40), (40, 10**9))
+
+
 def top_dist(a, b):
     return math.hypot(a['p'][0] - b['p'][0], a['p'][1] - b['p'][1])
 
@@ -52,6 +56,11 @@ def main(seq, out):
     for r in rows(out + '/tracks.csv', ','):
         tracks[r[0]].append(dict(id=int(r[1]), p=tuple(map(float, r[2:5])),
                                  v=tuple(map(float, r[5:8])), dyn=int(r[11])))
+    first_frame = {}  # track id -> frame index of its first row
+    for fi, stamp in enumerate(sorted(pose)):
+        for k in tracks[stamp]:
+            first_frame.setdefault(k['id'], fi)
+    by_age = collections.defaultdict(list)  # age bin -> [(position error, velocity error)]
     prev, speeds = {}, collections.defaultdict(list)
     total, missed = collections.Counter(), collections.Counter()
     perr, verr = collections.defaultdict(list), collections.defaultdict(list)
@@ -104,6 +113,8 @@ def main(seq, out):
             ids[o['id']].add(k['id'])
             perr[cls].append(top_dist(o, k))
             verr[cls].append(math.hypot(o['v'][0] - k['v'][0], o['v'][1] - k['v'][1]))
+            age = fi - first_frame[k['id']]
+            by_age[next(b for b in AGE_BINS if age < b[1])].append((perr[cls][-1], verr[cls][-1]))
             if beside:
                 nearest = min(gt[stamp], key=lambda g: top_dist(g, k))
                 if nearest['id'] != o['id']:
@@ -119,6 +130,13 @@ def main(seq, out):
               f'{sum(perr[c]) / psum:.2f}, {sum(verr[c]) / vsum:.2f}')
     print(f'{"all":32s} {sum(total.values()):7d} {sum(missed.values()):6d}  '
           f'{psum / sum(map(len, perr.values())):6.3f} {vsum / sum(map(len, verr.values())):8.3f}')
+    print(f'{"track age (frames)":32s} matched  pos(m) vel(m/s)  share of vel error sum')
+    for b in AGE_BINS:
+        e = by_age[b]
+        if e:
+            print(f'{"%d-%s" % (b[0], b[1] - 1 if b[1] < 10**9 else "")!s:32s} {len(e):7d}  '
+                  f'{sum(p for p, _ in e) / len(e):6.3f} {sum(v for _, v in e) / len(e):8.3f}  '
+                  f'{sum(v for _, v in e) / vsum:.2f}')
     n = [len(v) for v in ids.values()]
     print('track ids matched per person:', dict(sorted((i, len(v)) for i, v in ids.items())),
           f'mean {sum(n) / len(n):.2f} over {len(n)} people')

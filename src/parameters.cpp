@@ -179,6 +179,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(tracker.size_fix_growth), X, "", 0, 1, kClosed, kClosed, "raise a frozen size to a larger window mean"},
     {DYNAMAP_FIELD(tracker.measure_raw_box), X, "", 0, 1, kClosed, kClosed, "measure from the detector's box, not the map-refined one"},
     {DYNAMAP_FIELD(tracker.compensate_size_steps), X, "", 0, 1, kClosed, kClosed, "keep a step of the frozen size from reading as motion"},
+    {DYNAMAP_FIELD(tracker.compensate_cut_footprint), X, "", 0, 1, kClosed, kClosed, "keep the growing footprint of a border-cut detection from reading as motion"},
     {DYNAMAP_FIELD(tracker.ever_free_frames), X, "frames", 0, kMaxVoteWindow, kClosed, kClosed, "detections in ever-free space in a row that label a track dynamic (0: off)"},
     {DYNAMAP_FIELD(tracker.ever_free_share), X, "", 0, 1, kOpen, kClosed, "share of a detection's surface cells that must be ever free"},
     // Fragment joining (detection_refiner.hpp).

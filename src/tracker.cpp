@@ -182,11 +182,13 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr);
   const Eigen::Vector2f xy = m.center.head<2>();
   // A step of the frozen size (just set or raised) changes how the detection is turned into a
-  // centre, which is no motion (compensate_size_steps): measure the same detection with the
-  // size the last frame used and move the track's reference (filter position, position
-  // history, last measurement) by the difference.
-  const bool size_step =
-      config_.compensate_size_steps && t.out.size_fixed && m.size != t.corrected_with;
+  // centre, which is no motion (compensate_size_steps); so does the footprint of a box cut by
+  // the image border, which grows as a person enters the view (compensate_cut_footprint).
+  // Measure the same detection with the size the last frame used and move the track's
+  // reference (filter position, position history, last measurement) by the difference.
+  const bool size_step = m.size != t.corrected_with &&
+                         ((config_.compensate_size_steps && t.out.size_fixed) ||
+                          (config_.compensate_cut_footprint && !t.out.size_fixed && !m.in_view));
   if (size_step) {
     const Eigen::Vector2f step = xy - measure(det, camera, &t.corrected_with).center.head<2>();
     t.kf.shift_position(step);

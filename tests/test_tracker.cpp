@@ -618,6 +618,46 @@ TEST(TrackerSize, SizeStepIsNotReadAsMotion) {
   EXPECT_NEAR(x_without, 4.f, 0.02f);
 }
 
+// A walker (0.5 m wide) enters the view through the left image border, crossing 3 m ahead at
+// 1 m/s; its near face spans x in [2.75, 2.85]. For 12 frames its box touches the border and the
+// visible width grows by 4 cm a frame; then it is in full view. The bias correction pushes each
+// cut box back along the ray by half its footprint, so the growth alone would move the centre
+// away from the camera at 0.6 m/s. Returns the mean along-ray speed over frames 3-20 (truth 0)
+// and the last x centre (truth 3.0).
+std::pair<float, float> ray_speed_while_entering(bool compensate) {
+  TrackerConfig config;
+  config.compensate_cut_footprint = compensate;
+  auto tracker = make_tracker(config);
+  constexpr float kSpeed = 1.f, kDt = 1.f / 30.f;
+  Stamp stamp = 0;
+  float speed_sum = 0.f;
+  int counted = 0;
+  for (int f = 0; f < 40; ++f) {
+    const float leading = -1.f + kSpeed * kDt * static_cast<float>(f);  // the edge in view
+    const bool cut = f < 12;
+    const float width = cut ? 0.04f * static_cast<float>(f + 1) : 0.5f;
+    const Detection d = detection({2.8f, leading - 0.5f * width, 0.85f},
+                                  Eigen::Vector3f(0.1f, width, 1.7f), cut ? kClipped : kInView);
+    EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    EXPECT_EQ(tracker->size(), 1u);
+    if (f >= 3 && f <= 20) {
+      speed_sum += std::abs(tracker->obstacle(0).velocity.x());
+      ++counted;
+    }
+  }
+  return {speed_sum / static_cast<float>(counted), tracker->obstacle(0).box.center().x()};
+}
+
+TEST(TrackerSize, GrowingCutFootprintIsNotReadAsMotion) {
+  const auto [with, x_with] = ray_speed_while_entering(true);
+  const auto [without, x_without] = ray_speed_while_entering(false);
+  EXPECT_LT(with, 0.05f);
+  EXPECT_GT(without, 0.2f);  // the growth read as motion away from the camera
+  // In full view the footprint is the body's again: the centre ends where it is either way.
+  EXPECT_NEAR(x_with, 3.f, 0.01f);
+  EXPECT_NEAR(x_without, 3.f, 0.01f);
+}
+
 // An elongated box (a 2 m wall piece seen face on) is not round: its missing depth is unknown, so
 // the tracker keeps the visible face's centre instead of pushing it 1 m behind the wall.
 TEST(TrackerBias, ElongatedBoxKeepsItsCentre) {

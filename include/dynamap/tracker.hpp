@@ -110,6 +110,13 @@ struct TrackerConfig {
   /// (docs/tracker.md, "Measurement"). The per-frame footprint of a track whose size is not frozen
   /// yet is left alone: it is detection noise, not a re-estimate. No value to validate.
   bool compensate_size_steps = true;
+  /// Keep the footprint of a detection cut by the image border from reading as motion while the
+  /// size is not frozen: a person entering the view grows from a sliver to a full body within a
+  /// few frames, and the bias correction pushes the centre back along the ray by half of that
+  /// growth, which the filter reads as motion away from the camera. With this on, a cut
+  /// detection whose footprint differs from the last frame's is handled like a size step
+  /// (docs/tracker.md, "Measurement"). No value to validate.
+  bool compensate_cut_footprint = true;
   /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
   /// observed free (Detection::ever_free >= ever_free_share) on this many measured frames in a
   /// row is labelled dynamic, whatever its votes: it has moved into empty space. Its size must
