@@ -110,6 +110,33 @@ TEST(OverlayProjection, BoxInFrontProjectsToTheHandComputedRectangle) {
   EXPECT_NEAR(w.u1, 270.0, 1e-9);
 }
 
+TEST(OverlayProjection, MotionArrowIsTheHorizontalVelocityOverItsTime) {
+  const CameraModel cam = test_camera();
+  Eigen::Vector2d from, to;
+  // Identity pose (world = optical frame): 1 m/s along x for 0.5 s, 4 m ahead: u = 320 + 500 *
+  // 0.5 / 4. The world z part of a velocity is not drawn (here it is the optical axis).
+  ASSERT_TRUE(project_motion(cam, PoseD{}, {0, 0, 4}, {1, 0, 3}, 0.5, &from, &to));
+  EXPECT_NEAR(from.x(), 320.0, 1e-9);
+  EXPECT_NEAR(from.y(), 240.0, 1e-9);
+  EXPECT_NEAR(to.x(), 320.0 + 62.5, 1e-9);
+  EXPECT_NEAR(to.y(), 240.0, 1e-9);
+  // The z-up camera of the test above: walking to the world's left (+y) is towards image left.
+  PoseD pose;
+  pose.translation = {0, 0, 1};
+  Eigen::Matrix3d r_wc;
+  r_wc.col(0) = Eigen::Vector3d(0, -1, 0);
+  r_wc.col(1) = Eigen::Vector3d(0, 0, -1);
+  r_wc.col(2) = Eigen::Vector3d(1, 0, 0);
+  pose.rotation = Eigen::Quaterniond(r_wc);
+  ASSERT_TRUE(project_motion(cam, pose, {4, 0, 1}, {0, 1, 0}, 0.5, &from, &to));
+  EXPECT_NEAR(from.x(), 320.0, 1e-9);
+  EXPECT_NEAR(to.x(), 320.0 - 62.5, 1e-9);
+  EXPECT_NEAR(to.y(), 240.0, 1e-9);
+  // Either end behind the camera: nothing to draw.
+  EXPECT_FALSE(project_motion(cam, PoseD{}, {0, 0, -1}, {1, 0, 0}, 0.5, &from, &to));
+  EXPECT_FALSE(project_motion(cam, pose, {0.3, 0, 1}, {-1, 0, 0}, 0.5, &from, &to));
+}
+
 TEST(OverlayProjection, BoxBehindOrBesideTheCameraIsNotDrawn) {
   const CameraModel cam = test_camera();
   PixelRect r;

@@ -108,6 +108,18 @@ bool project_box(const CameraModel& camera, const PoseD& pose, const Eigen::Vect
   return true;
 }
 
+bool project_motion(const CameraModel& camera, const PoseD& pose, const Eigen::Vector3d& center,
+                    const Eigen::Vector3d& velocity, double seconds, Eigen::Vector2d* from,
+                    Eigen::Vector2d* to, double min_z) {
+  const Eigen::Vector3d a = to_camera(pose, center);
+  const Eigen::Vector3d b =
+      to_camera(pose, center + seconds * Eigen::Vector3d(velocity.x(), velocity.y(), 0.0));
+  if (a.z() < min_z || b.z() < min_z) return false;
+  *from = {camera.fx * a.x() / a.z() + camera.cx, camera.fy * a.y() / a.z() + camera.cy};
+  *to = {camera.fx * b.x() / b.z() + camera.cx, camera.fy * b.y() / b.z() + camera.cy};
+  return true;
+}
+
 Rgb8 depth_colour(double metres, double near_m, double far_m) {
   if (!(metres > 0.0)) return kNoDepthColour;
   // Logarithmic: people at 1-4 m get most of the colour range, and a ratio of distances looks
@@ -326,6 +338,29 @@ class LabelPlacer {
   std::vector<std::array<double, 4>> placed_;  // x, y, w, h
 };
 
+// How far ahead the velocity arrows reach: long enough to read a 0.3 m/s error 3 m away.
+constexpr double kArrowSeconds = 0.5;
+
+void arrow(cairo_t* cr, double x0, double y0, double x1, double y1, const Rgb& c, double width) {
+  const double len = std::hypot(x1 - x0, y1 - y0);
+  if (len < 1e-6) return;
+  const double ux = (x1 - x0) / len, uy = (y1 - y0) / len, head = std::min(10.0, 0.4 * len);
+  for (int halo = 1; halo >= 0; --halo) {  // dark halo first, like every other line
+    if (halo) {
+      cairo_set_source_rgba(cr, 0, 0, 0, 0.6);
+    } else {
+      set(cr, c);
+    }
+    cairo_set_line_width(cr, width + 2.0 * halo);
+    cairo_move_to(cr, x0, y0);
+    cairo_line_to(cr, x1, y1);
+    cairo_move_to(cr, x1 - head * (ux - 0.5 * uy), y1 - head * (uy + 0.5 * ux));
+    cairo_line_to(cr, x1, y1);
+    cairo_line_to(cr, x1 - head * (ux + 0.5 * uy), y1 - head * (uy - 0.5 * ux));
+    cairo_stroke(cr);
+  }
+}
+
 std::string speed_text(const Eigen::Vector3d& v) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.1f m/s", v.norm());
@@ -415,6 +450,22 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
       labels.push_back({px(pr.u0), top, label, c, t.dynamic, false_dyn ? 1 : t.dynamic ? 2 : 3});
     }
   }
+  // Velocity arrows (full-size frames): a counted person's true motion and each dynamic
+  // track's, kArrowSeconds ahead from the box centre, so a wrong direction shows at a glance.
+  if (st.labels) {
+    Eigen::Vector2d from, to;
+    for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
+      const ObstacleRecord& r = f.reference[i];
+      if (a.reference[i] == ReferenceKind::kOther) continue;
+      if (!project_motion(cam, f.pose, r.center, r.velocity, kArrowSeconds, &from, &to)) continue;
+      arrow(cr, px(from.x()), py(from.y()), px(to.x()), py(to.y()), kReference, 2.0 * lw);
+    }
+    for (const TrackRow& t : f.tracks) {
+      if (!t.dynamic) continue;
+      if (!project_motion(cam, f.pose, t.center, t.velocity, kArrowSeconds, &from, &to)) continue;
+      arrow(cr, px(from.x()), py(from.y()), px(to.x()), py(to.y()), kDynamic, 2.0 * lw);
+    }
+  }
   // Missed people last: they matter most and must not hide under a track's box.
   for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
     if (a.reference[i] != ReferenceKind::kMissed) continue;
@@ -438,7 +489,7 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
   cairo_restore(cr);
 }
 
-enum class Swatch { kSolid, kDashed, kFaint, kThickDashed, kThick };
+enum class Swatch { kSolid, kDashed, kFaint, kThickDashed, kThick, kArrow };
 
 void legend_swatch(cairo_t* cr, double x, double y, const Rgb& c, Swatch kind) {
   // A small box like the ones in the image, on a dark square so light colours read on white.
@@ -457,6 +508,9 @@ void legend_swatch(cairo_t* cr, double x, double y, const Rgb& c, Swatch kind) {
       break;
     case Swatch::kThickDashed:
       stroke_rect(cr, x + 5, y - 8, x + 21, y, c, 3.0, 5);
+      break;
+    case Swatch::kArrow:
+      arrow(cr, x + 4, y - 4, x + 22, y - 4, c, 2.0);
       break;
     case Swatch::kFaint: {
       const double d[] = {2.0, 3.0};
@@ -477,14 +531,16 @@ struct LegendItem {
   std::string label;
 };
 
-std::vector<LegendItem> legend_items(bool reference, bool detections) {
+std::vector<LegendItem> legend_items(bool reference, bool detections, bool arrows) {
   std::vector<LegendItem> items;
   if (detections) items.push_back({kDetection, Swatch::kSolid, "detection (image box)"});
   items.push_back({kDynamic, Swatch::kSolid, "dynamic track: id, speed"});
+  if (arrows) items.push_back({kDynamic, Swatch::kArrow, "its motion in 0.5 s"});
   items.push_back({kStatic, Swatch::kSolid, "static track: id"});
   if (reference) {
     items.push_back({kFalse, Swatch::kThick, "FALSE DYN: no reference near"});
     items.push_back({kReference, Swatch::kDashed, "reference person (counted)"});
+    if (arrows) items.push_back({kReference, Swatch::kArrow, "its true motion in 0.5 s"});
     items.push_back({kMissed, Swatch::kThickDashed, "MISSED: no dynamic track near"});
     items.push_back({kReference, Swatch::kFaint, "reference, not counted"});
   }
@@ -624,7 +680,7 @@ void render_overlay_frame(const OverlayFrame& f, const CameraModel& cam, const O
   double y = 300;
   text(cr, px0, y, "boxes", 14, true);
   y += 24;
-  for (const LegendItem& item : legend_items(f.has_reference, !f.detections.empty())) {
+  for (const LegendItem& item : legend_items(f.has_reference, !f.detections.empty(), true)) {
     legend_swatch(cr, px0, y, item.colour, item.swatch);
     set(cr, kText);
     text(cr, px0 + 32, y, item.label, 11.5);
@@ -661,7 +717,7 @@ void render_contact_sheet(const std::vector<OverlayFrame>& tiles, const CameraMo
   }
   double x = margin;
   const double ly = 70;
-  for (const LegendItem& item : legend_items(any_ref, any_det)) {
+  for (const LegendItem& item : legend_items(any_ref, any_det, false)) {
     // Short labels: the sheet is one README-wide picture.
     std::string label = item.label.substr(0, item.label.find(':'));
     if (label == "reference, not counted") label = "ref. not counted";

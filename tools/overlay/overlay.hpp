@@ -48,6 +48,13 @@ struct PixelRect {
 bool project_box(const CameraModel& camera, const PoseD& pose, const Eigen::Vector3d& center,
                  const Eigen::Vector3d& size, PixelRect* out, double min_z = 0.1);
 
+/// Projects the horizontal motion of a world point over `seconds`: `from` is the image point of
+/// `center`, `to` that of center + seconds * (vx, vy, 0). False when either point is not in
+/// front of the camera (camera z < min_z). Used to draw velocity arrows.
+bool project_motion(const CameraModel& camera, const PoseD& pose, const Eigen::Vector3d& center,
+                    const Eigen::Vector3d& velocity, double seconds, Eigen::Vector2d* from,
+                    Eigen::Vector2d* to, double min_z = 0.1);
+
 /// The depth colour map: near = warm (red, orange, yellow), far = cool (cyan, blue), on a
 /// logarithmic scale between near_m and far_m (clamped outside); 0 m = no measurement, dark grey.
 struct Rgb8 {
