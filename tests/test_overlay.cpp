@@ -70,6 +70,19 @@ CameraModel test_camera() {
   return c;
 }
 
+// A z-up world camera at (0, 0, 1) looking along world +x: optical x = world -y, y = world -z,
+// z = world +x.
+PoseD z_up_camera_at_1m() {
+  PoseD pose;
+  pose.translation = {0, 0, 1};
+  Eigen::Matrix3d r_wc;
+  r_wc.col(0) = Eigen::Vector3d(0, -1, 0);
+  r_wc.col(1) = Eigen::Vector3d(0, 0, -1);
+  r_wc.col(2) = Eigen::Vector3d(1, 0, 0);
+  pose.rotation = Eigen::Quaterniond(r_wc);
+  return pose;
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------- projection ------
@@ -89,13 +102,7 @@ TEST(OverlayProjection, BoxInFrontProjectsToTheHandComputedRectangle) {
   // The same box seen by a z-up world camera at (0, 0, 1) looking along world +x: optical
   // x = world -y, y = world -z, z = world +x. The box, 3..5 m ahead, 1 m wide, from the floor to
   // 2 m, gives the same rectangle.
-  PoseD pose;
-  pose.translation = {0, 0, 1};
-  Eigen::Matrix3d r_wc;
-  r_wc.col(0) = Eigen::Vector3d(0, -1, 0);
-  r_wc.col(1) = Eigen::Vector3d(0, 0, -1);
-  r_wc.col(2) = Eigen::Vector3d(1, 0, 0);
-  pose.rotation = Eigen::Quaterniond(r_wc);
+  const PoseD pose = z_up_camera_at_1m();
   PixelRect w;
   ASSERT_TRUE(project_box(cam, pose, {4, 0, 1}, {2, 1, 2}, &w));
   EXPECT_NEAR(w.u0, r.u0, 1e-9);
@@ -121,13 +128,7 @@ TEST(OverlayProjection, MotionArrowIsTheHorizontalVelocityOverItsTime) {
   EXPECT_NEAR(to.x(), 320.0 + 62.5, 1e-9);
   EXPECT_NEAR(to.y(), 240.0, 1e-9);
   // The z-up camera of the test above: walking to the world's left (+y) is towards image left.
-  PoseD pose;
-  pose.translation = {0, 0, 1};
-  Eigen::Matrix3d r_wc;
-  r_wc.col(0) = Eigen::Vector3d(0, -1, 0);
-  r_wc.col(1) = Eigen::Vector3d(0, 0, -1);
-  r_wc.col(2) = Eigen::Vector3d(1, 0, 0);
-  pose.rotation = Eigen::Quaterniond(r_wc);
+  const PoseD pose = z_up_camera_at_1m();
   ASSERT_TRUE(project_motion(cam, pose, {4, 0, 1}, {0, 1, 0}, 0.5, &from, &to));
   EXPECT_NEAR(from.x(), 320.0, 1e-9);
   EXPECT_NEAR(to.x(), 320.0 - 62.5, 1e-9);
