@@ -338,7 +338,8 @@ class LabelPlacer {
   std::vector<std::array<double, 4>> placed_;  // x, y, w, h
 };
 
-// How far ahead the velocity arrows reach: long enough to read a 0.3 m/s error 3 m away.
+// How far ahead the velocity arrows reach: long enough to read a 0.3 m/s error 3 m away (the
+// legend says "0.5 s").
 constexpr double kArrowSeconds = 0.5;
 
 void arrow(cairo_t* cr, double x0, double y0, double x1, double y1, const Rgb& c, double width) {
@@ -358,6 +359,27 @@ void arrow(cairo_t* cr, double x0, double y0, double x1, double y1, const Rgb& c
     cairo_line_to(cr, x1, y1);
     cairo_line_to(cr, x1 - head * (ux + 0.5 * uy), y1 - head * (uy - 0.5 * ux));
     cairo_stroke(cr);
+  }
+}
+
+// A counted person's true motion and each dynamic track's, kArrowSeconds ahead from the box
+// centre, so a wrong direction shows at a glance (full-size frames only: thumbnails are small).
+void draw_velocity_arrows(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a,
+                          const CameraModel& cam, const Style& st) {
+  auto draw = [&](const Eigen::Vector3d& center, const Eigen::Vector3d& velocity, const Rgb& c) {
+    Eigen::Vector2d from, to;
+    if (!project_motion(cam, f.pose, center, velocity, kArrowSeconds, &from, &to)) return;
+    // Pixel centres are at integer projection coordinates, as in draw_view.
+    arrow(cr, st.x + (from.x() + 0.5) * st.scale, st.y + (from.y() + 0.5) * st.scale,
+          st.x + (to.x() + 0.5) * st.scale, st.y + (to.y() + 0.5) * st.scale, c, 2.0 * st.line);
+  };
+  for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
+    if (a.reference[i] != ReferenceKind::kOther) {
+      draw(f.reference[i].center, f.reference[i].velocity, kReference);
+    }
+  }
+  for (const TrackRow& t : f.tracks) {
+    if (t.dynamic) draw(t.center, t.velocity, kDynamic);
   }
 }
 
@@ -450,22 +472,7 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
       labels.push_back({px(pr.u0), top, label, c, t.dynamic, false_dyn ? 1 : t.dynamic ? 2 : 3});
     }
   }
-  // Velocity arrows (full-size frames): a counted person's true motion and each dynamic
-  // track's, kArrowSeconds ahead from the box centre, so a wrong direction shows at a glance.
-  if (st.labels) {
-    Eigen::Vector2d from, to;
-    for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
-      const ObstacleRecord& r = f.reference[i];
-      if (a.reference[i] == ReferenceKind::kOther) continue;
-      if (!project_motion(cam, f.pose, r.center, r.velocity, kArrowSeconds, &from, &to)) continue;
-      arrow(cr, px(from.x()), py(from.y()), px(to.x()), py(to.y()), kReference, 2.0 * lw);
-    }
-    for (const TrackRow& t : f.tracks) {
-      if (!t.dynamic) continue;
-      if (!project_motion(cam, f.pose, t.center, t.velocity, kArrowSeconds, &from, &to)) continue;
-      arrow(cr, px(from.x()), py(from.y()), px(to.x()), py(to.y()), kDynamic, 2.0 * lw);
-    }
-  }
+  if (st.labels) draw_velocity_arrows(cr, f, a, cam, st);
   // Missed people last: they matter most and must not hide under a track's box.
   for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
     if (a.reference[i] != ReferenceKind::kMissed) continue;
