@@ -366,20 +366,22 @@ void arrow(cairo_t* cr, double x0, double y0, double x1, double y1, const Rgb& c
 // centre, so a wrong direction shows at a glance (full-size frames only: thumbnails are small).
 void draw_velocity_arrows(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a,
                           const CameraModel& cam, const Style& st) {
-  auto draw = [&](const Eigen::Vector3d& center, const Eigen::Vector3d& velocity, const Rgb& c) {
+  // The truth is drawn wider and first, so where the two agree it shows as a green rim.
+  auto draw = [&](const Eigen::Vector3d& center, const Eigen::Vector3d& velocity, const Rgb& c,
+                  double width) {
     Eigen::Vector2d from, to;
     if (!project_motion(cam, f.pose, center, velocity, kArrowSeconds, &from, &to)) return;
     // Pixel centres are at integer projection coordinates, as in draw_view.
     arrow(cr, st.x + (from.x() + 0.5) * st.scale, st.y + (from.y() + 0.5) * st.scale,
-          st.x + (to.x() + 0.5) * st.scale, st.y + (to.y() + 0.5) * st.scale, c, 2.0 * st.line);
+          st.x + (to.x() + 0.5) * st.scale, st.y + (to.y() + 0.5) * st.scale, c, width * st.line);
   };
   for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
     if (a.reference[i] != ReferenceKind::kOther) {
-      draw(f.reference[i].center, f.reference[i].velocity, kReference);
+      draw(f.reference[i].center, f.reference[i].velocity, kReference, 4.0);
     }
   }
   for (const TrackRow& t : f.tracks) {
-    if (t.dynamic) draw(t.center, t.velocity, kDynamic);
+    if (t.dynamic) draw(t.center, t.velocity, kDynamic, 2.0);
   }
 }
 
