@@ -950,6 +950,7 @@ TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
              "1.000000,11,4.2,1.3,0.85,0.3,0,0,0.5,0.5,1.7,1,-1\n"   // near still person: ok
              "1.000000,12,0.0,5.0,0.85,1,0,0,0.5,0.5,1.7,1,0\n"      // nowhere near: false pos.
              "1.000000,13,3.0,0.0,0.85,0,0,0,0.5,0.5,1.7,0,-1\n"     // static label: ignored
+             "1.000000,14,0.0,-5.0,0.85,0,0,0,0.5,0.5,1.7,0,-1\n"    // 14's first row: static
              "2.000000,14,3.1,0.3,0.85,1,0.1,0,0.5,0.5,1.7,1,2\n");  // matches 1: ID switch
   // Frame 3 has no tracks: a miss.
   write_file(res / "predictions.csv",
@@ -972,6 +973,19 @@ TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
   EXPECT_EQ(r.matched, 2u);
   EXPECT_NEAR(r.position_error, (0.1 + 0.3) / 2, 1e-9);
   EXPECT_NEAR(r.velocity_error, 0.1, 1e-9);
+  // No track is 20 frames old here; with a 1-frame threshold only track 14 (first row at frame
+  // 0, matched at frame 1) counts, with 0 both do.
+  EXPECT_EQ(r.matched_settled, 0u);
+  EXPECT_TRUE(std::isnan(r.velocity_error_settled));
+  for (const std::size_t settled : {0u, 1u, 2u}) {
+    eval::EvalOptions o;
+    o.settled_frames = settled;
+    const eval::EvalResult s = eval::evaluate(seq.str(), res.str(), o);
+    EXPECT_EQ(s.matched_settled, settled == 0 ? 2u : settled == 1 ? 1u : 0u) << settled;
+    if (settled < 2) {
+      EXPECT_NEAR(s.velocity_error_settled, 0.1, 1e-9) << settled;
+    }
+  }
   EXPECT_NEAR(r.recall, 2.0 / 3.0, 1e-12);
   EXPECT_EQ(r.dynamic_track_rows, 4u);
   EXPECT_NEAR(r.precision, 3.0 / 4.0, 1e-12);
@@ -991,6 +1005,7 @@ TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
   const std::string json = slurp(res / "metrics.json");
   EXPECT_NE(json.find("\"recall\": 0.666667"), std::string::npos) << json;
   EXPECT_NE(json.find("\"id_switches\": 1"), std::string::npos);
+  EXPECT_NE(json.find("\"velocity_error_settled_mps\": null"), std::string::npos);
   EXPECT_NE(json.find("\"linear_failure_ratio\": 0.5"), std::string::npos);
   EXPECT_NE(eval::format_table(r).find("MOTA"), std::string::npos);
 

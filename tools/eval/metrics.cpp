@@ -145,6 +145,24 @@ std::vector<int> min_cost_assignment(const std::vector<double>& cost, std::size_
   return result;
 }
 
+namespace {
+
+// Each track id's first frame (index into seq.frames) among its rows at frame stamps.
+std::map<int, std::size_t> first_frames(const Sequence& seq, const std::vector<TrackRow>& rows) {
+  std::map<std::int64_t, std::size_t> index;
+  for (std::size_t i = 0; i < seq.frames.size(); ++i) index[stamp_key(seq.frames[i].stamp)] = i;
+  std::map<int, std::size_t> first;
+  for (const auto& t : rows) {
+    const auto it = index.find(stamp_key(t.stamp));
+    if (it == index.end()) continue;
+    const auto f = first.find(t.id);
+    if (f == first.end() || it->second < f->second) first[t.id] = it->second;
+  }
+  return first;
+}
+
+}  // namespace
+
 EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
                     const EvalOptions& opt) {
   EvalResult r;
@@ -163,12 +181,15 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
   const auto tracks = by_stamp(track_rows);
   r.frames = seq.frames.size();
 
+  const std::map<int, std::size_t> first_frame = first_frames(seq, track_rows);
   std::set<std::int64_t> frame_keys;
   std::map<int, int> last_track_of_gt;  // gt id -> track id of its last match
-  double pos_sum = 0.0, vel_sum = 0.0;
+  double pos_sum = 0.0, vel_sum = 0.0, settled_vel_sum = 0.0;
+  r.settled_frames = opt.settled_frames;
   static const std::vector<ObstacleRecord> kNoObstacles;
   static const std::vector<TrackRow> kNoTracks;
   for (const auto& frame : seq.frames) {
+    const auto frame_index = static_cast<std::size_t>(&frame - seq.frames.data());
     const std::int64_t key = stamp_key(frame.stamp);
     frame_keys.insert(key);
     const auto oit = obstacles.find(key);
@@ -239,7 +260,12 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
       const TrackRow& t = *dyn[static_cast<std::size_t>(match[g])];
       ++r.matched;
       pos_sum += top_dist(gt[g]->center, t.center);
-      vel_sum += (gt[g]->velocity.head<2>() - t.velocity.head<2>()).norm();
+      const double vel_error = (gt[g]->velocity.head<2>() - t.velocity.head<2>()).norm();
+      vel_sum += vel_error;
+      if (frame_index >= first_frame.at(t.id) + opt.settled_frames) {
+        ++r.matched_settled;
+        settled_vel_sum += vel_error;
+      }
       const auto prev = last_track_of_gt.find(gt[g]->id);
       if (prev != last_track_of_gt.end() && prev->second != t.id) ++r.id_switches;
       last_track_of_gt[gt[g]->id] = t.id;
@@ -264,6 +290,7 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
   // Dynamic rows at stamps that are no frame were not visited above: count them as not near.
   r.position_error = r.matched > 0 ? pos_sum / r.matched : kNaN;
   r.velocity_error = r.matched > 0 ? vel_sum / r.matched : kNaN;
+  r.velocity_error_settled = r.matched_settled > 0 ? settled_vel_sum / r.matched_settled : kNaN;
   r.recall = r.gt_count > 0 ? static_cast<double>(r.matched) / r.gt_count : kNaN;
   r.precision = r.dynamic_track_rows > 0
                     ? static_cast<double>(r.dynamic_rows_near_obstacle) / r.dynamic_track_rows
@@ -343,6 +370,9 @@ std::string format_table(const EvalResult& r) {
   o << "  ------------------------------------------------------------------------\n";
   row("position error (m)", num(r.position_error, 3), "mean top-view distance, matched pairs");
   row("velocity error (m/s)", num(r.velocity_error, 3), "mean |(vx,vy) difference|");
+  row("  settled tracks", num(r.velocity_error_settled, 3),
+      std::to_string(r.matched_settled) +
+          " matched pairs whose track is >= " + std::to_string(r.settled_frames) + " frames old");
   row("recall", num(r.recall, 3),
       std::to_string(r.matched) + " matched / " + std::to_string(r.gt_count) + " ground truth");
   row("precision", num(r.precision, 3),
@@ -393,6 +423,8 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
     << "  \"matched\": " << r.matched << ",\n"
     << "  \"position_error_m\": " << json_num(r.position_error) << ",\n"
     << "  \"velocity_error_mps\": " << json_num(r.velocity_error) << ",\n"
+    << "  \"matched_settled\": " << r.matched_settled << ",\n"
+    << "  \"velocity_error_settled_mps\": " << json_num(r.velocity_error_settled) << ",\n"
     << "  \"recall\": " << json_num(r.recall) << ",\n"
     << "  \"precision\": " << json_num(r.precision) << ",\n"
     << "  \"dynamic_track_rows\": " << r.dynamic_track_rows << ",\n"

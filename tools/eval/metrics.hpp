@@ -21,6 +21,9 @@ struct EvalOptions {
   /// horizontal size of the track's box at that time stamp (0.25 m when the track row is missing).
   double footprint_radius = 0.0;
   double ground_clearance = 0.2;  ///< m: static shapes lower than floor + this are ignored
+  /// A matched pair whose track has existed this many frames also counts towards the settled
+  /// velocity error: a young track's velocity is still converging (docs/tools.md).
+  std::size_t settled_frames = 20;
   /// The obstacles to score against; empty: SEQ/obstacles.txt (the simulator's truth). For a
   /// real sequence, a reference made from the data (dynamap-label's obstacles.txt).
   std::string obstacles_file;
@@ -49,6 +52,9 @@ struct EvalResult {
   std::size_t track_rows_unknown_stamp = 0;  ///< rows whose stamp is no frame of the sequence
   double position_error = 0.0;               ///< m, NaN when nothing matched
   double velocity_error = 0.0;               ///< m/s
+  std::size_t settled_frames = 0;            ///< EvalOptions::settled_frames of the run
+  std::size_t matched_settled = 0;           ///< matched pairs with a track >= settled_frames old
+  double velocity_error_settled = 0.0;       ///< m/s over those, NaN when there are none
   double recall = 0.0;                       ///< NaN when gt_count == 0
   double precision = 0.0;                    ///< NaN when there are no dynamic rows
   double mota = 0.0;                         ///< NaN when gt_count == 0
