@@ -633,10 +633,12 @@ std::pair<float, float> ray_speed_while_entering(bool compensate) {
   float speed_sum = 0.f;
   int counted = 0;
   for (int f = 0; f < 40; ++f) {
-    const float leading = -1.f + kSpeed * kDt * static_cast<float>(f);  // the edge in view
+    // Walking to the camera's right (-y) out of the left border: the leading edge is in view,
+    // the rest is still beyond the border (larger y).
+    const float leading = 1.f - kSpeed * kDt * static_cast<float>(f);
     const bool cut = f < 12;
     const float width = cut ? 0.04f * static_cast<float>(f + 1) : 0.5f;
-    const Detection d = detection({2.8f, leading - 0.5f * width, 0.85f},
+    const Detection d = detection({2.8f, leading + 0.5f * width, 0.85f},
                                   Eigen::Vector3f(0.1f, width, 1.7f), cut ? kClipped : kInView);
     EXPECT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
     EXPECT_EQ(tracker->size(), 1u);
