@@ -116,6 +116,10 @@ bool config_valid(const OccupancyMapConfig& c) noexcept {
       c.max_voxel_visits_per_frame > kMaxVoxelVisitsPerFrame) {
     return false;
   }
+  if (!std::isfinite(c.no_return_free_depth) || c.no_return_free_depth < 0.f ||
+      c.no_return_free_depth > c.max_depth) {
+    return false;
+  }
   if (c.free_ray_early_stop < 0) return false;
   if (c.carve_tiles < 0 || c.carve_tiles > kMaxCarveTiles || c.threads < 1 ||
       c.threads > kMaxMapThreads || (c.threads > 1 && c.carve_tiles == 0) ||
@@ -467,12 +471,16 @@ void OccupancyMap::advance_frame_stamp() noexcept {
 // ---------------------------------------------------------------------------------------------
 // Integration.
 
-inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir,
+inline bool OccupancyMap::end_point(std::uint16_t raw, bool zero_carves, const Eigen::Array4f& dir,
                                     Eigen::Array4f& end, IndexVec& idx,
                                     bool& is_hit) const noexcept {
   float z = static_cast<float>(raw) * depth_scale_;
   is_hit = true;
-  if (raw == 0 || z > config_.max_depth) {
+  if (raw == 0) {
+    if (!zero_carves) return false;  // no measurement: unknown
+    z = config_.no_return_free_depth;
+    is_hit = false;
+  } else if (z > config_.max_depth) {
     z = config_.max_depth;
     is_hit = false;
   } else if (z < config_.min_depth) {
@@ -501,12 +509,48 @@ inline bool OccupancyMap::end_point(std::uint16_t raw, const Eigen::Array4f& dir
   return true;
 }
 
+/// A cell is a no-return cell when at least 15/16 of its sampled pixels are 0; a 0 pixel
+/// carves only when its cell and the 8 around it are (cells beyond the border count as
+/// no-return), so scattered dropouts, edges and small dark patches never carve.
+void OccupancyMap::find_no_return_regions(const DepthView& depth) noexcept {
+  no_return_any_ = false;
+  if (config_.no_return_free_depth <= 0.f) return;
+  const int cx = (cam_->width + kNoReturnCellPixels - 1) / kNoReturnCellPixels;
+  const int cy = (cam_->height + kNoReturnCellPixels - 1) / kNoReturnCellPixels;
+  const int margin = config_.pixel_margin, stride = config_.pixel_stride;
+  std::array<std::uint16_t, kNoReturnCellsX * kNoReturnCellsY> zeros{}, sampled{};
+  for (int v = margin; v < cam_->height - margin; v += stride) {
+    const std::uint16_t* row = depth.row(v);
+    const std::size_t base = static_cast<std::size_t>(v / kNoReturnCellPixels) * kNoReturnCellsX;
+    for (int u = margin; u < cam_->width - margin; u += stride) {
+      const std::size_t cell = base + static_cast<std::size_t>(u / kNoReturnCellPixels);
+      ++sampled[cell];
+      zeros[cell] = static_cast<std::uint16_t>(zeros[cell] + (row[u] == 0));
+    }
+  }
+  const auto empty = [&](int i, int j) {
+    if (i < 0 || j < 0 || i >= cx || j >= cy) return true;
+    const std::size_t cell = static_cast<std::size_t>(j) * kNoReturnCellsX + i;
+    return 16 * zeros[cell] >= 15 * sampled[cell];
+  };
+  for (int j = 0; j < cy; ++j) {
+    for (int i = 0; i < cx; ++i) {
+      bool all = true;
+      for (int dj = -1; dj <= 1 && all; ++dj) {
+        for (int di = -1; di <= 1 && all; ++di) all = empty(i + di, j + dj);
+      }
+      no_return_carves_[static_cast<std::size_t>(j) * kNoReturnCellsX + i] = all ? 1 : 0;
+      no_return_any_ = no_return_any_ || all;
+    }
+  }
+}
+
 /// Pass 1's loop constants, in locals of the loops that use them: the map writes there could
 /// otherwise alias the members, and the compiler would reload and re-broadcast them for every
 /// packet.
 struct OccupancyMap::EndPointConstants {
   Eigen::Array4i hit_raw_end, near_raw_end;
-  float scale, inv_res, max_depth;
+  float scale, inv_res, max_depth, zero_depth;
   Eigen::Array4f half_x, half_y, half_z, origin_x, origin_y, origin_z;
   Eigen::Array4i base_x, base_y, base_z;
   int margin, stride;
@@ -521,6 +565,7 @@ OccupancyMap::EndPointConstants OccupancyMap::end_point_constants() const noexce
           depth_scale_,
           inv_resolution_,
           config_.max_depth,
+          config_.no_return_free_depth,
           Eigen::Array4f::Constant(half_extent4_[0]),
           Eigen::Array4f::Constant(half_extent4_[1]),
           Eigen::Array4f::Constant(half_extent4_[2]),
@@ -542,11 +587,9 @@ OccupancyMap::EndPointConstants OccupancyMap::end_point_constants() const noexce
 /// operations; the selects are exact arithmetic and floor_lanes is exact), so the end voxels
 /// are bit-identical to end_point()'s, which pass 2 uses.
 // Always inlined: called once per packet, and its lanes feed the caller's loop in registers.
-EIGEN_ALWAYS_INLINE OccupancyMap::EndLanes OccupancyMap::end_lanes(const EndPointConstants& c,
-                                                                   const std::uint16_t* row,
-                                                                   const RowDirection& row_dir,
-                                                                   int k0,
-                                                                   int lanes) const noexcept {
+EIGEN_ALWAYS_INLINE OccupancyMap::EndLanes OccupancyMap::end_lanes(
+    const EndPointConstants& c, const std::uint16_t* row, const std::uint8_t* carve_cells,
+    const RowDirection& row_dir, int k0, int lanes) const noexcept {
   std::array<std::uint16_t, 4> raw{};
   const std::uint16_t* px = row + c.margin + k0 * c.stride;
   if (lanes == 4) {
@@ -558,10 +601,10 @@ EIGEN_ALWAYS_INLINE OccupancyMap::EndLanes OccupancyMap::end_lanes(const EndPoin
   }
   const Eigen::Array4i raw_i{raw[0], raw[1], raw[2], raw[3]};
   const Eigen::Array4f raw_f = raw_i.cast<float>();  // exact: raw < 2^16
-  // Free rays (no return, or beyond max_depth) are cast to max_depth. Select-free form:
-  // (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
+  // Free rays beyond max_depth are cast to max_depth, carving 0 pixels to zero_depth.
+  // Select-free form: (1 - raw)^+ is exactly 1 for raw == 0 and 0 otherwise, and z + 0 == z.
   const Eigen::Array4f z_ray =
-      (raw_f * c.scale + (1.f - raw_f).max(0.f) * c.max_depth).min(c.max_depth);
+      (raw_f * c.scale + (1.f - raw_f).max(0.f) * c.zero_depth).min(c.max_depth);
   const auto k = static_cast<std::size_t>(k0);
   Eigen::Array4f off_x = (Eigen::Array4f::Map(&sampled_dir_x_[k]) + row_dir.x) * z_ray;
   Eigen::Array4f off_y = (Eigen::Array4f::Map(&sampled_dir_y_[k]) + row_dir.y) * z_ray;
@@ -570,16 +613,24 @@ EIGEN_ALWAYS_INLINE OccupancyMap::EndLanes OccupancyMap::end_lanes(const EndPoin
   const Eigen::Array4f outside =
       (off_x.abs() - c.half_x).max(off_y.abs() - c.half_y).max(off_z.abs() - c.half_z);
   // Lane classes as 0/1 integers, computed in the lanes (arithmetic shifts give -1 where the
-  // difference is negative): raw in [1, near_raw_end) is closer than min_depth and skipped;
-  // raw in [near_raw_end, hit_raw_end) is a hit unless clipped; the rest (0, or beyond
-  // max_depth) are free rays. near_raw_end >= 1 and near_raw_end <= hit_raw_end, so each
-  // difference below is 0 or 1.
-  const Eigen::Array4i below_zero = (raw_i - 1).shiftRight<31>();
+  // difference is negative): raw in [0, near_raw_end) is unknown (0: no measurement) or
+  // closer than min_depth, and skipped; raw in [near_raw_end, hit_raw_end) is a hit unless
+  // clipped; the rest (beyond max_depth) are free rays. near_raw_end >= 1 and near_raw_end <=
+  // hit_raw_end, so each difference below is 0 or 1.
   const Eigen::Array4i below_near = (raw_i - c.near_raw_end).shiftRight<31>();
   const Eigen::Array4i below_hit = (raw_i - c.hit_raw_end).shiftRight<31>();
   EndLanes e;
-  e.too_near = below_zero - below_near;  // 1: skip the pixel
-  e.hit = below_near - below_hit;        // 1: measured and not near
+  e.too_near = -below_near;        // 1: skip the pixel
+  e.hit = below_near - below_hit;  // 1: measured and not near
+  if (carve_cells != nullptr) {
+    // no_return_free_depth: 0 pixels in a carving cell are free rays to zero_depth.
+    for (int l = 0; l < 4; ++l) {
+      const int u = c.margin + (k0 + std::min(l, lanes - 1)) * c.stride;
+      if (raw[static_cast<std::size_t>(l)] == 0 && carve_cells[u / kNoReturnCellPixels] != 0) {
+        e.too_near[l] = 0;
+      }
+    }
+  }
   if (outside.maxCoeff() > 0.f) {
     // end_point()'s clip: min(1, h/|o|) is 1 where |o| <= h (h/|o| >= 1, or inf), so the
     // minimum over axes is its scale; lanes inside keep the factor 1 exactly. The factor is
@@ -681,9 +732,10 @@ void OccupancyMap::mark_end_points(const DepthView& depth) noexcept {
   for (int v = margin; v < cam_->height - margin; v += stride) {
     const std::uint16_t* row = depth.row(v);
     const RowDirection row_dir = row_direction_lanes(v);
+    const std::uint8_t* carve_cells = no_return_row(v);
     for (int k0 = 0; k0 < columns; k0 += 4) {
       const int lanes = std::min(4, columns - k0);
-      const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
+      const EndLanes e = end_lanes(c, row, carve_cells, row_dir, k0, lanes);
       const Eigen::Array4i key =
           e.blk_x + (e.blk_y + e.blk_z.shiftLeft<kKeyBlockBits>()).shiftLeft<kKeyBlockBits>();
       for (int l = 0; l < lanes; ++l) {
@@ -793,12 +845,13 @@ void OccupancyMap::compute_end_codes(std::size_t chunk) noexcept {
     const int v = margin + j * stride;
     const std::uint16_t* row = team_depth_->row(v);
     const RowDirection row_dir = row_direction_lanes(v);
+    const std::uint8_t* carve_cells = no_return_row(v);
     const std::size_t first = static_cast<std::size_t>(j) * static_cast<std::size_t>(columns);
     std::uint32_t* codes = &end_codes_[first];
     std::fill_n(&end_kept_[first], columns, std::uint8_t{0});
     for (int k0 = 0; k0 < columns; k0 += 4) {
       const int lanes = std::min(4, columns - k0);
-      const EndLanes e = end_lanes(c, row, row_dir, k0, lanes);
+      const EndLanes e = end_lanes(c, row, carve_cells, row_dir, k0, lanes);
       const Eigen::Array4i gi = e.blk_x + off_x, gj = e.blk_y + off_y, gk = e.blk_z + off_z;
       const Eigen::Array4i cell = gi + dim_x * (gj + dim_y * gk);
       const Eigen::Array<bool, 4, 1> inside =
@@ -1052,8 +1105,11 @@ bool OccupancyMap::start_ray(std::uint32_t pixel, const DepthView& depth, const 
   Eigen::Array4f end;
   bool end_is_hit = false;
   IndexVec last{};
-  if (!end_point(depth.at(u, v), column_dir_[static_cast<std::size_t>(u)] + row_direction(v), end,
-                 last, end_is_hit)) {
+  const std::uint8_t* carve_cells = no_return_row(v);
+  const bool zero_carves = carve_cells != nullptr && carve_cells[u / kNoReturnCellPixels] != 0;
+  if (!end_point(depth.at(u, v), zero_carves,
+                 column_dir_[static_cast<std::size_t>(u)] + row_direction(v), end, last,
+                 end_is_hit)) {
     return false;
   }
   // Parameter t in [0, 1] along from_point -> from_point + d. The far part of a ray is its own,
@@ -1515,6 +1571,7 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   ray_count_ = 0;
   tiles_list_rays_ = false;
   set_frame_geometry(cam, T_map_camera);
+  find_no_return_regions(depth);
 
   // Pass 1: end points. Hits are applied here (once per voxel), so pass 2's misses skip them:
   // hit wins over miss. Rays ending in an already-seen voxel are merged (when enabled).

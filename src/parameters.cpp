@@ -92,6 +92,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(map.prob_occupied), X, "", 0, 1, kOpen, kOpen, "a voxel at or above this is occupied"},
     {DYNAMAP_FIELD(map.min_depth), X, "m", 0, kInf, kClosed, kOpen, "nearer measurements are dropped"},
     {DYNAMAP_FIELD(map.max_depth), U, "m", 0, kInf, kOpen, kOpen, "map range: deeper pixels carve free space up to this depth only"},
+    {DYNAMAP_FIELD(map.no_return_free_depth), X, "m", 0, kInf, kClosed, kOpen, "0: a pixel with no measurement (0) is unknown; d > 0: 0 pixels inside large no-return regions (sky, a hall beyond range) carve free space up to d (<= map.max_depth)"},
     {DYNAMAP_FIELD(map.pixel_margin), X, "px", 0, kMaxImageHeight, kClosed, kClosed, "image border left out of the map update"},
     {DYNAMAP_FIELD(map.pixel_stride), C, "px", 1, kMaxImageWidth, kClosed, kClosed, "every n-th pixel of every n-th row is a ray"},
     {DYNAMAP_FIELD(map.local_half_extent), U, "m", 0, kInf, kOpen, kOpen, "only this box around the camera is updated (per axis, <= 1000 voxels)"},

@@ -86,6 +86,8 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
   k.require(m.prob_min <= m.prob_occupied && m.prob_occupied < m.prob_max, "map.prob_occupied",
             "must be in [map.prob_min, map.prob_max)");
   k.require(m.max_depth > m.min_depth, "map.max_depth", "must be > map.min_depth");
+  k.require(m.no_return_free_depth <= m.max_depth, "map.no_return_free_depth",
+            "must be <= map.max_depth");
   k.require((m.local_half_extent.array() <= kMaxLocalHalfExtentVoxels * m.resolution).all(),
             "map.local_half_extent",
             "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "

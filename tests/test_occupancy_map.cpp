@@ -147,12 +147,21 @@ Scene wall_scene(float x) {
   return Scene{{Plane{Vec3(x, 0, 0), Vec3(1, 0, 0)}}, {}};
 }
 
-/// A 7 x 6 x 3 m room with furniture, open on the +x side (no-return pixels there).
-Scene regression_room() {
+/// A plane 20 m away on +x, beyond max_depth: its pixels are free rays to max_depth.
+Plane far_backdrop() {
+  return Plane{Vec3(20.f, 0, 0), Vec3(-1, 0, 0)};
+}
+
+/// A 7 x 6 x 3 m room with furniture, open on the +x side: no-return (0) pixels there, unless
+/// `backdrop` closes it with far_backdrop(). The recorded checksums and the early-stop bounds
+/// were measured when 0 pixels were free rays to max_depth; the backdrop gives exactly those
+/// rays now that 0 is unknown.
+Scene regression_room(bool backdrop = true) {
   Scene s;
   s.planes = {Plane{Vec3(0, 0, 0), Vec3(0, 0, 1)}, Plane{Vec3(0, 0, 3.02f), Vec3(0, 0, -1)},
               Plane{Vec3(-3.03f, 0, 0), Vec3(1, 0, 0)}, Plane{Vec3(0, 3.01f, 0), Vec3(0, -1, 0)},
               Plane{Vec3(0, -2.97f, 0), Vec3(0, 1, 0)}};
+  if (backdrop) s.planes.push_back(far_backdrop());
   s.boxes = {Box3{Vec3(1.0f, -1.4f, 0.f), Vec3(2.0f, -0.6f, 0.75f)},
              Box3{Vec3(2.4f, 0.9f, 0.f), Vec3(2.9f, 2.1f, 1.8f)},
              Box3{Vec3(-0.35f, 1.85f, 0.f), Vec3(-0.05f, 2.15f, 3.0f)},
@@ -359,7 +368,7 @@ std::vector<CarveScene> carve_scenes() {
   std::vector<CarveScene> v;
   for (const auto& [name, pose] : wall_poses()) v.push_back({name, wall_scene(3.03f), pose});
   // A floor at grazing angles: rays cross voxels that other pixels hit.
-  v.push_back({"floor", Scene{{Plane{Vec3(0, 0, 0), Vec3(0, 0, 1)}}, {}},
+  v.push_back({"floor", Scene{{Plane{Vec3(0, 0, 0), Vec3(0, 0, 1)}, far_backdrop()}, {}},
                make_pose(Vec3(0, 0, 0.6f), 0.f, 0.25f)});
   v.push_back({"room", regression_room(), make_pose(Vec3(-1.f, 0.3f, 1.2f), 0.4f, 0.2f)});
   return v;
@@ -447,35 +456,172 @@ TEST(OccupancyMap, EarlyStopKeepsTheOccupiedVoxelsOfAWalk) {
 
 // ---- no-return, too-near and out-of-region pixels --------------------------------------------
 
-TEST(OccupancyMap, NoReturnPixelsCarveFreeSpaceUpToMaxDepth) {
+TEST(OccupancyMap, AFrameWithNoMeasurementChangesNoVoxel) {
+  // 0 = no measurement (dark, shiny, edge, too near on a real camera): unknown, never free.
   auto map = make_map();
   const CameraIntrinsics cam = small_camera();
   const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  const std::uint64_t empty = map->checksum();
   std::vector<std::uint16_t> zeros(static_cast<std::size_t>(cam.width * cam.height), 0);
   DepthView view{zeros.data(), cam.width, cam.height,
                  cam.width * static_cast<int>(sizeof(std::uint16_t))};
   ASSERT_EQ(map->integrate(view, cam, pose, kFrameNs), Status::kOk);
-  EXPECT_EQ(map->last_stats().hits, 0u);
-  EXPECT_EQ(map->state(Vec3(2.0f, 0.05f, 1.05f)), Occupancy::kFree);
-  EXPECT_EQ(map->state(Vec3(4.85f, 0.05f, 1.05f)), Occupancy::kFree);
-  EXPECT_EQ(map->state(Vec3(5.25f, 0.05f, 1.05f)), Occupancy::kUnknown);
-  std::size_t occupied = 0;
-  map->for_each_occupied([&](OccupancyMap::VoxelKey, const Vec3&) { ++occupied; });
-  EXPECT_EQ(occupied, 0u);
+  EXPECT_EQ(map->checksum(), empty);
+  EXPECT_EQ(map->last_stats().pixels_sampled, 0u);
+  EXPECT_EQ(map->state(Vec3(2.0f, 0.05f, 1.05f)), Occupancy::kUnknown);
 
-  // Beyond max depth: the same free-only ray; nearer than min depth: nothing at all.
+  // Beyond max depth is a measurement: a free-only ray to max_depth.
   auto far_map = make_map();
   std::vector<std::uint16_t> far(zeros.size(), 9000);  // 9 m
   view.data = far.data();
   ASSERT_EQ(far_map->integrate(view, cam, pose, kFrameNs), Status::kOk);
-  EXPECT_EQ(far_map->checksum(), map->checksum());
+  EXPECT_EQ(far_map->last_stats().hits, 0u);
+  EXPECT_EQ(far_map->state(Vec3(2.0f, 0.05f, 1.05f)), Occupancy::kFree);
+  EXPECT_EQ(far_map->state(Vec3(4.85f, 0.05f, 1.05f)), Occupancy::kFree);
+  EXPECT_EQ(far_map->state(Vec3(5.25f, 0.05f, 1.05f)), Occupancy::kUnknown);
+  // Nearer than min depth: nothing at all.
   auto near_map = make_map();
   std::vector<std::uint16_t> near(zeros.size(), 400);  // 0.4 m < min_depth
   view.data = near.data();
-  const std::uint64_t empty = near_map->checksum();
   ASSERT_EQ(near_map->integrate(view, cam, pose, kFrameNs), Status::kOk);
   EXPECT_EQ(near_map->checksum(), empty);
   EXPECT_EQ(near_map->last_stats().pixels_sampled, 0u);
+}
+
+/// The camera sways 0.6 m sideways and 0.2 m up and down (period 40 frames), looking along +x
+/// at a 1 x 1 x 1.4 m box 2 m ahead in front of a wall.
+Pose swaying_pose(int f) {
+  const float phase = 6.2831853f * static_cast<float>(f) / 40.f;
+  return make_pose(Vec3(0, 0.6f * std::sin(phase), 1.f + 0.2f * std::cos(phase)), 0.f);
+}
+
+/// The depth of `clean` with 0.5 % of its pixels 0 at random and half of those at a depth
+/// edge (a jump > 0.2 m to a 4-neighbour), as a stereo camera loses them.
+void drop_like_a_stereo_camera(const DepthImage& clean, const CameraIntrinsics& cam,
+                               std::uint64_t& rng, DepthImage& out) {
+  const auto next = [&rng] {
+    rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(rng >> 11) / 9007199254740992.0;
+  };
+  const auto at = [&](int x, int y) {
+    return static_cast<int>(clean.pixels[static_cast<std::size_t>(y * cam.width + x)]);
+  };
+  out.pixels = clean.pixels;
+  out.view = clean.view;
+  out.view.data = out.pixels.data();
+  for (int v = 1; v + 1 < cam.height; ++v) {
+    for (int u = 1; u + 1 < cam.width; ++u) {
+      const int z = at(u, v);
+      const bool edge = std::abs(z - at(u + 1, v)) > 200 || std::abs(z - at(u - 1, v)) > 200 ||
+                        std::abs(z - at(u, v + 1)) > 200 || std::abs(z - at(u, v - 1)) > 200;
+      if ((edge && next() < 0.5) || next() < 0.005) {
+        out.pixels[static_cast<std::size_t>(v * cam.width + u)] = 0;
+      }
+    }
+  }
+}
+
+TEST(OccupancyMap, DropoutsNeverCarveThroughASurfaceSeenBefore) {
+  // A box seen for 100 frames, then 300 frames with a stereo camera's dropouts: every surface
+  // voxel still occupied, and no voxel inside the box ever free (a 0 that carved to max_depth
+  // would cross the box).
+  const CameraIntrinsics cam = small_camera();
+  const Box3 box{Vec3(2.0f, -0.5f, 0.3f), Vec3(3.0f, 0.5f, 1.7f)};
+  const Scene scene{{Plane{Vec3(4.5f, 0, 0), Vec3(-1, 0, 0)}}, {box}};
+  auto map = make_map();
+  for (int f = 0; f < 100; ++f) {
+    const DepthImage clean = render(scene, cam, swaying_pose(f));
+    ASSERT_EQ(
+        map->integrate(clean.view, cam, swaying_pose(f), static_cast<Stamp>(f + 1) * kFrameNs),
+        Status::kOk);
+  }
+  std::set<OccupancyMap::VoxelKey> surface;
+  map->for_each_occupied([&](OccupancyMap::VoxelKey k, const Vec3& c) {
+    if (c.x() < 3.1f) surface.insert(k);  // the box, not the wall behind it
+  });
+  ASSERT_GT(surface.size(), 100u);
+  std::uint64_t rng = 12345;
+  DepthImage noisy;
+  std::size_t free_inside = 0, zeros = 0;
+  for (int f = 100; f < 400; ++f) {
+    const DepthImage clean = render(scene, cam, swaying_pose(f));
+    drop_like_a_stereo_camera(clean, cam, rng, noisy);
+    for (std::uint16_t z : noisy.pixels) zeros += z == 0;
+    ASSERT_EQ(
+        map->integrate(noisy.view, cam, swaying_pose(f), static_cast<Stamp>(f + 1) * kFrameNs),
+        Status::kOk);
+    // Voxel centres at least one voxel inside the box.
+    for (float x = 2.15f; x < 2.9f; x += 0.1f) {
+      for (float y = -0.35f; y < 0.4f; y += 0.1f) {
+        for (float z = 0.45f; z < 1.6f; z += 0.1f) {
+          free_inside += map->state(Vec3(x, y, z)) == Occupancy::kFree;
+        }
+      }
+    }
+  }
+  ASSERT_GT(zeros, 300u * 100u);  // about 1 % of the pixels each frame
+  EXPECT_EQ(free_inside, 0u);
+  std::size_t lost = 0;
+  for (OccupancyMap::VoxelKey k : surface) lost += map->state(k) != Occupancy::kOccupied;
+  EXPECT_EQ(lost, 0u);
+}
+
+TEST(OccupancyMap, LargeNoReturnRegionsCarveOnlyWhenAskedAndOnlyThatFar) {
+  // no_return_free_depth: 0 pixels carve where they fill large regions (sky, a hall beyond
+  // range), never where they are scattered over a surface.
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  OccupancyMapConfig cfg;
+  cfg.no_return_free_depth = 2.f;
+  std::vector<std::uint16_t> zeros(static_cast<std::size_t>(cam.width * cam.height), 0);
+  DepthView view{zeros.data(), cam.width, cam.height,
+                 cam.width * static_cast<int>(sizeof(std::uint16_t))};
+  auto sky = make_map(cfg);
+  ASSERT_EQ(sky->integrate(view, cam, pose, kFrameNs), Status::kOk);
+  EXPECT_EQ(sky->last_stats().hits, 0u);
+  EXPECT_EQ(sky->state(Vec3(1.5f, 0.05f, 1.05f)), Occupancy::kFree);
+  EXPECT_EQ(sky->state(Vec3(2.25f, 0.05f, 1.05f)), Occupancy::kUnknown);
+
+  // A wall at 3 m with 5 % of its pixels 0: no cell is a no-return region, so the option
+  // changes nothing.
+  const DepthImage wall = render(wall_scene(3.03f), cam, pose);
+  DepthImage holes = wall;
+  holes.view.data = holes.pixels.data();
+  for (std::size_t i = 0; i < holes.pixels.size(); i += 20) holes.pixels[i] = 0;
+  auto with = make_map(cfg);
+  auto without = make_map();
+  ASSERT_EQ(with->integrate(holes.view, cam, pose, kFrameNs), Status::kOk);
+  ASSERT_EQ(without->integrate(holes.view, cam, pose, kFrameNs), Status::kOk);
+  EXPECT_EQ(with->checksum(), without->checksum());
+
+  // The wall's right half missing: 0 pixels a cell or more inside the missing half carve,
+  // those next to the measured half do not (their 3 x 3 cells are not all no-return).
+  DepthImage half = wall;
+  half.view.data = half.pixels.data();
+  for (int v = 0; v < cam.height; ++v) {
+    for (int u = cam.width / 2; u < cam.width; ++u) {
+      half.pixels[static_cast<std::size_t>(v * cam.width + u)] = 0;
+    }
+  }
+  auto map = make_map(cfg);
+  ASSERT_EQ(map->integrate(half.view, cam, pose, kFrameNs), Status::kOk);
+  ASSERT_EQ(map->integrate(half.view, cam, pose, 2 * kFrameNs), Status::kOk);  // 2 hits: occupied
+  // Camera z is map +x; image u grows towards map -y.
+  const auto ray_point = [&](int u, float depth) -> Vec3 {
+    return pose.translation + pixel_dir(cam, pose, u, cam.height / 2) * depth;
+  };
+  EXPECT_EQ(map->state(ray_point(cam.width - 20, 1.5f)), Occupancy::kFree);
+  EXPECT_EQ(map->state(ray_point(cam.width - 20, 2.3f)), Occupancy::kUnknown);
+  EXPECT_EQ(map->state(ray_point(cam.width / 2 + 2, 1.5f)), Occupancy::kUnknown);
+  EXPECT_EQ(map->state(ray_point(cam.width / 2 - 10, 1.5f)), Occupancy::kFree);
+  EXPECT_EQ(map->state(ray_point(cam.width / 2 - 10, 3.08f)), Occupancy::kOccupied);
+
+  // Validated: finite, >= 0, <= max_depth.
+  auto bad = std::make_unique<OccupancyMap>();
+  cfg.no_return_free_depth = cfg.max_depth + 0.1f;
+  EXPECT_EQ(bad->init(cfg), Status::kInvalidArgument);
+  cfg.no_return_free_depth = -1.f;
+  EXPECT_EQ(bad->init(cfg), Status::kInvalidArgument);
 }
 
 TEST(OccupancyMap, OnlyTheLocalRegionIsUpdated) {
@@ -908,11 +1054,12 @@ TEST(OccupancyMap, EarlyStopRerunsAreBitIdentical) {
 
 /// integrate_walk()'s flight, also hashing the set of voxels each frame updated (hit or miss).
 std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int frames,
-                                          OccupancyMap::WorkerHook hook = nullptr) {
+                                          OccupancyMap::WorkerHook hook = nullptr,
+                                          bool backdrop = true) {
   auto map = make_map(cfg);
   OccupancyMap::set_worker_hook(hook);
   const CameraIntrinsics cam = small_camera(320, 240);
-  const Scene scene = regression_room();
+  const Scene scene = regression_room(backdrop);
   std::uint64_t h = 0;
   for (int f = 0; f < frames; ++f) {
     const float s = static_cast<float>(f) / static_cast<float>(frames);
@@ -951,6 +1098,16 @@ TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
         EXPECT_EQ(integrate_walk_with_updates(cfg, 12), one) << threads << " threads";
       }
     }
+  }
+  // The open room's 0 pixels: unknown, or carving (no_return_free_depth) where they fill
+  // large regions; both the same on every thread count.
+  for (float no_return : {0.f, 3.f}) {
+    OccupancyMapConfig open;
+    open.carve_tiles = 4;
+    open.no_return_free_depth = no_return;
+    const std::uint64_t open_one = integrate_walk_with_updates(open, 12, nullptr, false);
+    open.threads = 2;
+    EXPECT_EQ(integrate_walk_with_updates(open, 12, nullptr, false), open_one) << no_return;
   }
   // With a tiny pool (eviction every frame, blocks that cannot be allocated) and the visit cap.
   OccupancyMapConfig tiny;

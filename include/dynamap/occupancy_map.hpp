@@ -42,6 +42,14 @@ inline constexpr int kMaxCarveTiles = 8;
 /// region has 3179); each tile's scratch holds one 512-bit mark set per cell it touches.
 inline constexpr std::size_t kMaxTileCells = 4096;
 
+/// Edge (pixels) of the image cells in which map.no_return_free_depth looks for no-return
+/// regions.
+inline constexpr int kNoReturnCellPixels = 16;
+inline constexpr int kNoReturnCellsX =
+    (kMaxImageWidth + kNoReturnCellPixels - 1) / kNoReturnCellPixels;
+inline constexpr int kNoReturnCellsY =
+    (kMaxImageHeight + kNoReturnCellPixels - 1) / kNoReturnCellPixels;
+
 /// What the map knows about a voxel: never observed, free, or occupied.
 enum class Occupancy : std::uint8_t { kUnknown = 0, kFree, kOccupied };
 
@@ -52,7 +60,13 @@ struct OccupancyMapConfig {
   float prob_hit = 0.70f, prob_miss = 0.35f, prob_min = 0.12f, prob_max = 0.97f,
         prob_occupied = 0.80f;
   float min_depth = 0.5f;  ///< closer measurements are dropped entirely
-  float max_depth = 5.0f;  ///< 0 or deeper -> free-space ray truncated at this depth (camera z)
+  float max_depth = 5.0f;  ///< deeper measurements -> free-space ray truncated here (camera z)
+  /// A pixel with no measurement (raw 0) is unknown: it neither hits nor carves, because on a
+  /// real camera 0 mostly means "no valid match" (dark, shiny, edge, too near), not "nothing
+  /// there". d > 0: a 0 pixel inside a large no-return region (its kNoReturnCellPixels-square cell
+  /// and the 8 around it nearly all 0, as sky or a hall beyond range) carves free space up to
+  /// camera depth d (<= max_depth). Default 0: never (docs/occupancy_map.md, "No return").
+  float no_return_free_depth = 0.f;
   int pixel_margin = 2, pixel_stride = 2;
   Eigen::Vector3f local_half_extent{5.f, 5.f, 3.f};    ///< only this region around the camera is
                                                        ///< updated (rays are clipped to it)
@@ -339,8 +353,8 @@ class OccupancyMap {
   void advance_frame_stamp() noexcept;
   // A ray's end point and end voxel (clipped to the local region). Pass 2 calls this; pass 1
   // does the same float operations four pixels at a time, so both agree bit for bit.
-  bool end_point(std::uint16_t raw, const Eigen::Array4f& dir, Eigen::Array4f& end, IndexVec& idx,
-                 bool& is_hit) const noexcept;
+  bool end_point(std::uint16_t raw, bool zero_carves, const Eigen::Array4f& dir,
+                 Eigen::Array4f& end, IndexVec& idx, bool& is_hit) const noexcept;
   Eigen::Array4f row_direction(int v) const noexcept {
     return ((static_cast<float>(v) - cy_) * inv_fy_) * down_dir_ + forward_dir_;
   }
@@ -363,7 +377,16 @@ class OccupancyMap {
             Eigen::Array4f::Constant(d[2])};
   }
   EndLanes end_lanes(const EndPointConstants& c, const std::uint16_t* row,
-                     const RowDirection& row_dir, int k0, int lanes) const noexcept;
+                     const std::uint8_t* carve_cells, const RowDirection& row_dir, int k0,
+                     int lanes) const noexcept;
+  /// no_return_free_depth: finds this frame's cells whose 0 pixels carve (no_return_carves_).
+  void find_no_return_regions(const DepthView& depth) noexcept;
+  /// The carve flags of row v's cells, or nullptr when no 0 pixel of the frame carves.
+  const std::uint8_t* no_return_row(int v) const noexcept {
+    return no_return_any_ ? &no_return_carves_[static_cast<std::size_t>(v / kNoReturnCellPixels) *
+                                               kNoReturnCellsX]
+                          : nullptr;
+  }
   struct EndMarkStamps {
     std::uint16_t queued, hit;
     bool merge;
@@ -497,6 +520,9 @@ class OccupancyMap {
   /// loads 4 pixels' directions per axis at once; padded to whole packets.
   std::array<float, kMaxImageWidth + 4> sampled_dir_x_{}, sampled_dir_y_{}, sampled_dir_z_{};
   int sampled_columns_ = 0;
+  /// Per image cell: 1 where 0 pixels carve free space this frame (no_return_free_depth > 0).
+  std::array<std::uint8_t, kNoReturnCellsX * kNoReturnCellsY> no_return_carves_{};
+  bool no_return_any_ = false;
   /// Raw depths 1 .. hit_raw_end_ - 1 are hits (depth <= max_depth); below near_raw_end_ they
   /// are closer than min_depth (end_point()'s float tests, as integer ranges of the raw value).
   std::uint32_t hit_raw_end_ = 0, near_raw_end_ = 0;
