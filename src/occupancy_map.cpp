@@ -268,6 +268,17 @@ float OccupancyMap::log_odds(const Eigen::Vector3f& p) const noexcept {
   return dequantize(v->log_odds);
 }
 
+std::uint64_t OccupancyMap::occupied_frames(const Eigen::Vector3f& p) const noexcept {
+  IndexVec idx{};
+  if (!initialized_ || !index_of(p, idx)) return 0;
+  const Block* b = find_block(idx[0] >> kBlockBits, idx[1] >> kBlockBits, idx[2] >> kBlockBits);
+  if (b == nullptr) return 0;
+  const std::size_t li = local_index(idx[0], idx[1], idx[2]);
+  if (classify(b->voxels[li].log_odds) != Occupancy::kOccupied) return 0;
+  const auto age = static_cast<std::uint16_t>(since_tick() - b->occupied_since[li]);
+  return std::uint64_t{std::min(age, kMaxSinceAgeTicks)} * kSinceTickFrames;
+}
+
 bool OccupancyMap::is_occupied(const Eigen::Vector3f& p) const noexcept {
   return state(p) == Occupancy::kOccupied;
 }
@@ -357,6 +368,9 @@ Status OccupancyMap::set_log_odds(const Eigen::Vector3f& p, float value) noexcep
   const auto updated = static_cast<std::int16_t>(std::lround(q));
   b->occupied = static_cast<std::uint16_t>(b->occupied + (updated > q_occupied_) -
                                            (v.log_odds > q_occupied_));
+  if (updated > q_occupied_ && v.log_odds <= q_occupied_) {
+    b->occupied_since[local_index(idx[0], idx[1], idx[2])] = since_tick();
+  }
   v.log_odds = updated;
   return Status::kOk;
 }
@@ -379,6 +393,7 @@ OccupancyMap::Block* OccupancyMap::allocate_block(std::int32_t bi, std::int32_t 
   b.index = {bi, bj, bk};
   b.occupied = 0;
   b.last_frame = frames_;
+  b.occupied_since.fill(0);
   ++stats_.blocks_allocated;
   return &b;
 }
@@ -457,10 +472,18 @@ inline OccupancyMap::Block* OccupancyMap::local_block(const LocalGrid& g, std::i
 
 void OccupancyMap::advance_frame_stamp() noexcept {
   if (frame_tag_ >= kMaxFrameTag) {
-    // Rare wrap (every ~9 min at 30 Hz): old stamps could alias new ones, so clear them all.
+    // Rare wrap (every ~9 min at 30 Hz): old stamps could alias new ones, so clear them all;
+    // and cap occupied ages (at most 9 min = 2048 ticks more by the next wrap, far below 2^15).
+    const std::uint16_t now = since_tick();
     for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
       if (!slot_used_[s]) continue;
-      for (Voxel& v : pool_[s].voxels) v.stamp = 0;
+      Block& b = pool_[s];
+      for (Voxel& v : b.voxels) v.stamp = 0;
+      for (std::uint16_t& since : b.occupied_since) {
+        if (static_cast<std::uint16_t>(now - since) > kMaxSinceAgeTicks) {
+          since = static_cast<std::uint16_t>(now - kMaxSinceAgeTicks);
+        }
+      }
     }
     frame_tag_ = 0;
     sink_tag_ = 0;
@@ -681,6 +704,7 @@ inline bool OccupancyMap::mark_end_voxel(Block& block, std::size_t li, bool hit,
       const std::int32_t updated = std::min(current + s.q_hit, s.q_max);
       block.occupied = static_cast<std::uint16_t>(block.occupied + (updated > s.q_occupied) -
                                                   (vx.log_odds > s.q_occupied));
+      if (updated > s.q_occupied && vx.log_odds <= s.q_occupied) block.occupied_since[li] = s.since;
       vx.log_odds = static_cast<std::int16_t>(updated);
       vx.stamp = s.hit;
       ++k.updates;
@@ -697,6 +721,7 @@ OccupancyMap::EndMarkStamps OccupancyMap::end_mark_stamps(std::size_t max_rays) 
   const auto base = static_cast<std::uint16_t>(frame_tag_ * 4u);
   return {static_cast<std::uint16_t>(base + kQueued),
           static_cast<std::uint16_t>(base + kHit),
+          since_tick(),
           config_.merge_rays_per_voxel,
           max_rays,
           q_hit_,

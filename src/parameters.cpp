@@ -208,6 +208,8 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(cleaner.inflation), X, "", 1, kInf, kClosed, kOpen, "horizontal growth of a cleared box about its centre"},
     {DYNAMAP_FIELD(cleaner.z_margin), X, "m", 0, kInf, kClosed, kOpen, "added below and above a cleared box"},
     {DYNAMAP_FIELD(cleaner.older_boxes_per_frame), X, "", 0, kMaxBoxHistory, kClosed, kClosed, "older boxes revisited per track and frame"},
+    {DYNAMAP_FIELD(cleaner.keep_static), X, "", 0, 1, kClosed, kClosed, "never clear voxels occupied since before a dynamic track started (static structure)"},
+    {DYNAMAP_FIELD(cleaner.static_margin_frames), X, "frames", 0, 100000, kClosed, kClosed, "occupied this many frames before the track started counts as static"},
     {DYNAMAP_FIELD(cleaner.max_voxels_per_frame), C, "", 1, kMaxCleanerVoxelsPerFrame, kClosed, kClosed, "work cap: voxels examined per frame"},
     {DYNAMAP_FIELD(cleaner.max_purge_per_frame), C, "", 1, kCleanHistoryCapacity, kClosed, kClosed, "work cap: expired history entries purged per frame"},
     {DYNAMAP_FIELD(clean_history_max_age_ns), X, "ns", 0, kInf, kClosed, kOpen, "cleared voxels count as occupied this long for the refiner"},

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <memory>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include "alloc_guard.hpp"
@@ -105,6 +106,64 @@ TEST(DynamicRegionCleaner, FreesTheWalkersTrailAndRecordsIt) {
   for (auto k : s.floor) EXPECT_EQ(s.map->state(k), Occupancy::kOccupied);
   for (auto k : s.pillar) EXPECT_EQ(s.map->state(k), Occupancy::kOccupied);
   for (auto k : s.pillar) EXPECT_FALSE(s.history->contains(k));
+}
+
+/// Advances the map's clock one frame without changing a voxel: a frame with no measurement.
+void tick(OccupancyMap& map, Stamp stamp) {
+  CameraIntrinsics cam;
+  cam.width = 8;
+  cam.height = 8;
+  cam.fx = cam.fy = 5.f;
+  cam.cx = cam.cy = 3.5f;
+  cam.depth_scale = 0.001f;
+  const std::uint16_t zeros[64] = {};
+  const DepthView view{zeros, 8, 8, 8 * static_cast<int>(sizeof(std::uint16_t))};
+  ASSERT_EQ(map.integrate(view, cam, Pose{}, stamp), Status::kOk);
+}
+
+/// A walker walking 3 s along a wall whose voxels its boxes reach (a detection that took in the
+/// wall's pixels at its edge), with the map's clock running; returns the wall voxels still
+/// occupied and the trail voxels (walker voxels outside its last box) not cleared.
+std::pair<std::size_t, std::size_t> walk_along_a_wall(const DynamicRegionCleanerConfig& config) {
+  Scene s;
+  s.init(config);
+  std::vector<OccupancyMap::VoxelKey> wall;
+  occupy(*s.map, Box3{Eigen::Vector3f(2.5f, 0.75f, 0.f), Eigen::Vector3f(6.5f, 0.85f, 2.f)}, &wall);
+  for (int f = 0; f < 60; ++f) tick(*s.map, kFrame * static_cast<Stamp>(f + 1));  // seen for 2 s
+  std::vector<OccupancyMap::VoxelKey> walker;
+  Box3 box;
+  for (int f = 0; f < 90; ++f) {
+    const Stamp stamp = kFrame * static_cast<Stamp>(f + 61);
+    tick(*s.map, stamp);
+    box = Box3::from_center_size(Eigen::Vector3f(3.f + f / 30.f, 0.55f, 0.85f),
+                                 Eigen::Vector3f(0.4f, 0.4f, 1.6f));
+    occupy(*s.map, box, &walker);
+    const Detection det = detection_of(box);
+    EXPECT_EQ(s.tracker->update(&det, 1, Pose{}, stamp), Status::kOk);
+    EXPECT_EQ(s.cleaner.clean(*s.tracker, *s.map, *s.history, stamp), Status::kOk);
+  }
+  EXPECT_TRUE(s.tracker->size() == 1 && s.tracker->obstacle(0).dynamic);
+  std::size_t wall_kept = 0, trail_left = 0;
+  for (auto k : wall) wall_kept += s.map->state(k) == Occupancy::kOccupied;
+  for (auto k : walker) {
+    const Eigen::Vector3f c = s.map->center_of(k);
+    const bool now = c.x() > box.min.x() - 0.35f;  // the current box and its inflated margin
+    trail_left += !now && s.map->state(k) == Occupancy::kOccupied;
+  }
+  EXPECT_GT(walker.size(), 1000u);
+  return {wall.size() - wall_kept, trail_left};
+}
+
+TEST(DynamicRegionCleaner, AWalkerAlongAWallClearsItsTrailButNotTheWall) {
+  const auto [wall_erased, trail_left] = walk_along_a_wall(DynamicRegionCleanerConfig{});
+  EXPECT_EQ(wall_erased, 0u);
+  EXPECT_EQ(trail_left, 0u);
+  // Without keep_static the same boxes erase the wall's near layer.
+  DynamicRegionCleanerConfig off;
+  off.keep_static = false;
+  const auto [erased_off, trail_off] = walk_along_a_wall(off);
+  EXPECT_GT(erased_off, 50u);
+  EXPECT_EQ(trail_off, 0u);
 }
 
 TEST(DynamicRegionCleaner, NothingIsClearedBeforeTheWalkerIsDynamic) {

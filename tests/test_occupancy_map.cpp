@@ -763,8 +763,8 @@ void check_no_allocation(const OccupancyMapConfig& cfg) {
     sink += map->first_occupied_on_segment(pose.translation, Vec3(4.f, 0.f, 1.f), &hit) ? 1u : 0u;
     sink += map->for_each_occupied_in_box(
         box, 100000, [&](OccupancyMap::VoxelKey k, const Vec3&) { sink += k & 1u; });
-    sink +=
-        map->clear_box(box, 100000, [&](OccupancyMap::VoxelKey k, const Vec3&) { sink += k & 1u; });
+    sink += map->clear_box(box, 100000, OccupancyMap::kKeepNone,
+                           [&](OccupancyMap::VoxelKey k, const Vec3&) { sink += k & 1u; });
     map->for_each_occupied([&](OccupancyMap::VoxelKey k, const Vec3&) { sink += k & 1u; });
     EXPECT_EQ(map->set_log_odds(Vec3(0.55f, 0.55f, 0.55f), 2.f), Status::kOk);
     sink += static_cast<std::size_t>(map->center_of(map->key_of(p)).x());
@@ -940,21 +940,25 @@ TEST(OccupancyMap, ClearBoxFreesOnlyOccupiedVoxelsInsideTheBox) {
   const float free_before = map->log_odds(Vec3(2.55f, 0.05f, 1.05f));
   ASSERT_LT(free_before, 0.f);
   std::set<OccupancyMap::VoxelKey> cleared;
-  const std::size_t n = map->clear_box(box, 1u << 20, [&](OccupancyMap::VoxelKey k, const Vec3& c) {
-    EXPECT_TRUE(box.contains(c));
-    cleared.insert(k);
-  });
+  const std::size_t n = map->clear_box(box, 1u << 20, OccupancyMap::kKeepNone,
+                                       [&](OccupancyMap::VoxelKey k, const Vec3& c) {
+                                         EXPECT_TRUE(box.contains(c));
+                                         cleared.insert(k);
+                                       });
   EXPECT_EQ(n, expected.size());
   EXPECT_EQ(cleared, expected);
   for (OccupancyMap::VoxelKey k : before) {
     EXPECT_EQ(map->state(k), expected.count(k) ? Occupancy::kFree : Occupancy::kOccupied);
   }
   EXPECT_EQ(map->log_odds(Vec3(2.55f, 0.05f, 1.05f)), free_before);  // free voxels untouched
-  EXPECT_EQ(map->clear_box(box, 1u << 20, [](OccupancyMap::VoxelKey, const Vec3&) {}), 0u);
+  EXPECT_EQ(map->clear_box(box, 1u << 20, OccupancyMap::kKeepNone,
+                           [](OccupancyMap::VoxelKey, const Vec3&) {}),
+            0u);
 
   // The budget bounds the work: a small budget examines (and clears) only part of the box.
   const Box3 rest{Vec3(2.9f, -2.f, 0.f), Vec3(3.2f, 2.f, 2.f)};
-  const std::size_t partial = map->clear_box(rest, 300, [](OccupancyMap::VoxelKey, const Vec3&) {});
+  const std::size_t partial = map->clear_box(rest, 300, OccupancyMap::kKeepNone,
+                                             [](OccupancyMap::VoxelKey, const Vec3&) {});
   const std::size_t remaining =
       map->for_each_occupied_in_box(rest, 1u << 20, [](OccupancyMap::VoxelKey, const Vec3&) {});
   EXPECT_LT(partial, 300u);
@@ -1479,7 +1483,7 @@ std::unique_ptr<OccupancyMap> segment_test_map(SegmentRng& rng) {
   EXPECT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), 2.f), Status::kOk);
   EXPECT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), -1.f), Status::kOk);
   EXPECT_GT(map->clear_box(Box3{Vec3(2.3f, 0.8f, 0.f), Vec3(3.0f, 1.5f, 1.0f)}, 1u << 20,
-                           [](OccupancyMap::VoxelKey, const Vec3&) {}),
+                           OccupancyMap::kKeepNone, [](OccupancyMap::VoxelKey, const Vec3&) {}),
             0u);
   return map;
 }
@@ -1581,7 +1585,7 @@ TEST(OccupancyMap, SegmentQueryMatchesReferenceWalk) {
   ASSERT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), 2.f), Status::kOk);
   ASSERT_EQ(map->set_log_odds(Vec3(7.55f, 7.55f, 1.05f), -1.f), Status::kOk);
   EXPECT_EQ(map->clear_box(Box3{Vec3(2.3f, 0.8f, 0.f), Vec3(3.0f, 1.5f, 1.0f)}, 1u << 20,
-                           [](OccupancyMap::VoxelKey, const Vec3&) {}) > 0,
+                           OccupancyMap::kKeepNone, [](OccupancyMap::VoxelKey, const Vec3&) {}) > 0,
             true);
 
   std::size_t hits = 0, checked = 0;

@@ -29,6 +29,12 @@ struct DynamicRegionCleanerConfig {
   /// in turn, so every box of the last f frames is revisited at least every ceil((f - 1) / n)
   /// frames (0: newest box only).
   std::size_t older_boxes_per_frame = 3;
+  /// A voxel occupied without a break since at least this many frames before a dynamic track
+  /// started is static structure (a wall the walker brushes past, a box it turns in front of):
+  /// that track's boxes never clear it. Walkers' trails became occupied after their track
+  /// started and are cleared as before.
+  bool keep_static = true;
+  std::size_t static_margin_frames = 30;
   std::size_t max_voxels_per_frame = 100000;  ///< cap on voxels examined per frame (all tracks)
   std::size_t max_purge_per_frame = 4096;     ///< cap on expired history entries purged per frame
 
@@ -67,8 +73,9 @@ class DynamicRegionCleaner {
   }
 
   /// Clears the recent boxes of every dynamic track of `tracker` in `map` (an OccupancyMap, or
-  /// anything with clear_box / resolution) and records freed voxels in `history` at `stamp`.
-  /// kTimeNotIncreasing (nothing changes) when stamp is not after the previous call's.
+  /// anything with its clear_box / resolution), keeping static structure (keep_static) and records
+  /// freed voxels in `history` at `stamp`. kTimeNotIncreasing (nothing changes) when stamp is not
+  /// after the previous call's.
   template <class Map, std::size_t Capacity>
   [[nodiscard]] Status clean(const Tracker& tracker, Map& map, BasicCleanHistory<Capacity>& history,
                              Stamp stamp) noexcept {
@@ -83,6 +90,7 @@ class DynamicRegionCleaner {
     auto record = [&history, stamp](std::uint64_t key, const Eigen::Vector3f&) {
       history.insert(key, stamp);
     };
+    std::uint64_t keep_frames = 0;  // the current track's: older voxels are static structure
     auto clear_one = [&](const Box3& past) -> bool {
       const Box3 region = inflate(past);
       const std::size_t cost = voxel_span(region, res);
@@ -92,7 +100,7 @@ class DynamicRegionCleaner {
       }
       budget -= cost;
       stats_.voxels_budgeted += cost;
-      stats_.voxels_freed += map.clear_box(region, cost, record);
+      stats_.voxels_freed += map.clear_box(region, cost, keep_frames, record);
       ++stats_.boxes_cleared;
       return true;
     };
@@ -103,6 +111,9 @@ class DynamicRegionCleaner {
       const std::size_t i = (step + frame_) % n_tracks;
       if (!tracker.obstacle(i).dynamic) continue;
       ++stats_.dynamic_tracks;
+      keep_frames = config_.keep_static
+                        ? std::uint64_t{tracker.obstacle(i).age} + config_.static_margin_frames
+                        : ~std::uint64_t{0};
       std::size_t n_boxes = tracker.box_history_size(i);
       if (n_boxes > config_.frames) n_boxes = config_.frames;
       if (n_boxes == 0) continue;

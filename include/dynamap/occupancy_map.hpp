@@ -208,11 +208,17 @@ class OccupancyMap {
   /// f(VoxelKey, const Eigen::Vector3f& centre). Returns the number of voxels visited.
   template <class F>
   std::size_t for_each_occupied_in_box(const Box3& box, std::size_t max_voxels, F&& f) const;
-  /// Sets occupied voxels whose centre lies inside `box` to free (clamp minimum);
-  /// on_cleared(VoxelKey, centre) for each changed voxel. Same budget as above.
-  /// Returns the number of voxels changed.
+  /// Sets occupied voxels whose centre lies inside `box` to free (clamp minimum), except those
+  /// occupied without a break for at least `keep_frames` frames (static structure; pass
+  /// kKeepNone to clear all); on_cleared(VoxelKey, centre) for each changed voxel. Same budget
+  /// as above. Returns the number of voxels changed.
   template <class F>
-  std::size_t clear_box(const Box3& box, std::size_t max_voxels, F&& on_cleared);
+  std::size_t clear_box(const Box3& box, std::size_t max_voxels, std::uint64_t keep_frames,
+                        F&& on_cleared);
+  static constexpr std::uint64_t kKeepNone = ~std::uint64_t{0};
+  /// Frames the voxel at p has been occupied without a break (to kSinceTickFrames; ages over
+  /// kMaxSinceAgeTicks ticks read as that), 0 when it is not occupied.
+  std::uint64_t occupied_frames(const Eigen::Vector3f& p) const noexcept;
 
   /// Sets one voxel's log-odds (clamped). kCapacityExceeded when its block cannot be allocated.
   [[nodiscard]] Status set_log_odds(const Eigen::Vector3f& p, float log_odds) noexcept;
@@ -283,7 +289,17 @@ class OccupancyMap {
     /// can step over a block without any occupied voxel in one go.
     std::uint16_t occupied;
     std::uint64_t last_frame;  ///< frames_ value when last touched by integrate()
+    /// Per voxel: since_tick() when it last became occupied (read only while it is). Apart
+    /// from the voxels so integration's hot loops do not carry it.
+    std::array<std::uint16_t, kBlockVoxels> occupied_since;
   };
+  /// occupied_since counts ticks of kSinceTickFrames frames, modulo 2^16; the frame-tag wrap
+  /// caps ages at kMaxSinceAgeTicks so the modular difference stays exact.
+  static constexpr std::uint64_t kSinceTickFrames = 8;
+  static constexpr std::uint16_t kMaxSinceAgeTicks = 16384;
+  std::uint16_t since_tick() const noexcept {
+    return static_cast<std::uint16_t>(frames_ / kSinceTickFrames);
+  }
 
   struct EvictionCandidate {
     float distance_sq;
@@ -388,7 +404,7 @@ class OccupancyMap {
                           : nullptr;
   }
   struct EndMarkStamps {
-    std::uint16_t queued, hit;
+    std::uint16_t queued, hit, since;
     bool merge;
     std::size_t max_rays;
     std::int32_t q_hit, q_max, q_occupied;
@@ -605,8 +621,14 @@ std::size_t OccupancyMap::for_each_occupied_in_box(const Box3& box, std::size_t 
 }
 
 template <class F>
-std::size_t OccupancyMap::clear_box(const Box3& box, std::size_t max_voxels, F&& on_cleared) {
+std::size_t OccupancyMap::clear_box(const Box3& box, std::size_t max_voxels,
+                                    std::uint64_t keep_frames, F&& on_cleared) {
+  const std::uint16_t now = since_tick();
+  const std::uint64_t keep_ticks =
+      keep_frames == kKeepNone ? kKeepNone : keep_frames / kSinceTickFrames;
   return scan_box(box, max_voxels, [&](const Block* block, std::size_t li, const IndexVec& idx) {
+    const auto age = static_cast<std::uint16_t>(now - block->occupied_since[li]);
+    if (age >= keep_ticks) return false;  // static structure: kept
     // scan_box is const; the block lives in our own pool, so writing through it is sound.
     Block* mutable_block = &pool_[static_cast<std::size_t>(block - pool_.data())];
     mutable_block->voxels[li].log_odds = q_min_;  // q_min_ <= q_occupied_ (init checks it)
