@@ -111,6 +111,7 @@ inline double unit_lo(std::uint64_t h) {
 
 constexpr std::uint64_t kDarkJitterSalt = 0xDA5C0FFEEull;
 constexpr std::uint64_t kDarkCellSalt = 0xDA5CE11ull;
+constexpr std::uint64_t kDarkDrawSalt = 0xDA5D4A3ull;
 
 // 2-D coordinates of a surface point in the object's own frame: a box face's two in-plane axes
 // (face = which of the 6 faces), a cylinder's unrolled mantle (arc length, height).
@@ -139,25 +140,40 @@ Eigen::Vector2d surface_coordinates(const StaticWorld& world, int surface, const
   return {std::atan2(r.y(), r.x()) * c.radius, p.z()};
 }
 
-// Dark or shiny surface: the stereo matcher fails in patches. The surface is divided into square
-// cells of `dark_patch` m in its own coordinates; each cell is lost with probability
-// `dark_dropout`, redrawn every `dark_period` frames at its own phase. The lookup point is
-// jittered by up to 0.08 cell per pixel and frame, so patch borders are ragged and flicker.
+// Dark or shiny surface: the stereo matcher fails in patches. The surface (in its own
+// coordinates) is divided into irregular cells, the Voronoi cells of one random site per
+// `dark_patch` m square; each cell is lost with probability `dark_dropout`, redrawn every
+// `dark_period` frames at its own phase. The lookup point is jittered by up to 0.08 cell per
+// pixel and frame, so patch borders are ragged and flicker.
 bool lost_on_dark_surface(const StaticWorld& world, int surface, const Eigen::Vector3d& p,
                           const DepthNoise& nz, std::uint64_t seed, std::uint64_t frame,
                           std::uint64_t pix) {
   int face = 0;
-  Eigen::Vector2d q = surface_coordinates(world, surface, p, &face);
+  Eigen::Vector2d g = surface_coordinates(world, surface, p, &face) / nz.dark_patch;
   const std::uint64_t jitter = hash3(seed ^ kDarkJitterSalt, frame, pix);
-  q += 0.16 * nz.dark_patch * Eigen::Vector2d(unit_hi(jitter) - 0.5, unit_lo(jitter) - 0.5);
-  const auto ia = static_cast<std::int64_t>(std::floor(q.x() / nz.dark_patch));
-  const auto ib = static_cast<std::int64_t>(std::floor(q.y() / nz.dark_patch));
-  const std::uint64_t cell =
-      hash3(static_cast<std::uint64_t>(surface) * 8 + static_cast<std::uint64_t>(face),
-            static_cast<std::uint64_t>(ia), static_cast<std::uint64_t>(ib));
+  g += 0.16 * Eigen::Vector2d(unit_hi(jitter) - 0.5, unit_lo(jitter) - 0.5);
+  const std::uint64_t shape =
+      static_cast<std::uint64_t>(surface) * 8 + static_cast<std::uint64_t>(face);
+  const double fa = std::floor(g.x()), fb = std::floor(g.y());
+  std::uint64_t cell = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (int da = -1; da <= 1; ++da) {
+    for (int db = -1; db <= 1; ++db) {
+      const auto ia = static_cast<std::int64_t>(fa) + da, ib = static_cast<std::int64_t>(fb) + db;
+      const std::uint64_t id =
+          hash3(seed ^ kDarkCellSalt, shape,
+                hash3(static_cast<std::uint64_t>(ia), static_cast<std::uint64_t>(ib), 0));
+      const Eigen::Vector2d site(fa + da + unit_hi(id), fb + db + unit_lo(id));
+      const double d = (site - g).squaredNorm();
+      if (d < best) {
+        best = d;
+        cell = id;
+      }
+    }
+  }
   const auto period = static_cast<std::uint64_t>(std::max(1, nz.dark_period));
   const std::uint64_t epoch = (frame + cell % period) / period;
-  return unit(hash3(seed ^ kDarkCellSalt, epoch, cell)) < nz.dark_dropout;
+  return unit(hash3(seed ^ kDarkDrawSalt, epoch, cell)) < nz.dark_dropout;
 }
 
 // Static geometry into the range/id buffers; `surface` receives the static shape index per
