@@ -1056,6 +1056,64 @@ TEST(Simulator, DarkFlagRoundTripsThroughStaticWorldFile) {
   EXPECT_FALSE(v.cylinders[0].dark);
 }
 
+// Issue 28's flight: the camera flies down the corridor at 0.5-1.5 m/s like a multirotor, clear
+// of every box, wall and person; people walk along the corridor both ways and across it.
+TEST(Simulator, CorridorFlightFliesClearOfEverything) {
+  for (std::uint64_t seed : {1, 2}) {
+    const sim::Scene s = sim::make_scene("corridor_flight", seed);
+    ASSERT_GE(s.walkers.size(), 4u);
+    EXPECT_EQ(s.default_frames, 300);
+    int dark = 0;
+    for (const auto& b : s.world.boxes) dark += b.dark;
+    EXPECT_GE(dark, 4);
+    const sim::CameraMotion cam(s.camera);
+    std::vector<sim::WalkerMotion> motions(s.walkers.begin(), s.walkers.end());
+    double slowest = 9.0, fastest = 0.0, nearest_static = 9.0, nearest_walker = 9.0;
+    double max_tilt = 0.0;
+    int along_pos = 0, along_neg = 0, across = 0;
+    for (int f = 0; f < s.default_frames; ++f) {
+      const double t = f / s.fps;
+      const PoseD p = cam.pose(t);
+      const double v = cam.speed(t);
+      slowest = std::min(slowest, v);
+      fastest = std::max(fastest, v);
+      EXPECT_GT(p.translation.z(), 1.2);
+      EXPECT_LT(p.translation.z(), 1.5);
+      // Optical x (image right) stays nearly level: roll and sway of a few degrees.
+      const Eigen::Vector3d right = p.rotation * Eigen::Vector3d::UnitX();
+      max_tilt = std::max(max_tilt, std::asin(std::fabs(right.z())));
+      const Eigen::Vector2d c = p.translation.head<2>();
+      nearest_static = std::min(nearest_static, s.world.top_view_distance(c, 0.0, 2.0));
+      for (const auto& w : sim::walker_states(motions, t)) {
+        nearest_walker = std::min(nearest_walker, (w.position - c).norm() - w.radius);
+        along_pos += w.velocity.x() > 0.5;
+        along_neg += w.velocity.x() < -0.5;
+        across += std::fabs(w.velocity.y()) > 0.5;
+      }
+    }
+    EXPECT_GE(slowest, 0.48) << "seed " << seed;
+    EXPECT_LE(fastest, 1.52) << "seed " << seed;
+    EXPECT_GT(fastest, 1.4);
+    EXPECT_LT(slowest, 0.6);
+    EXPECT_LT(max_tilt, 0.06);
+    EXPECT_GE(nearest_static, 0.99) << "seed " << seed;
+    EXPECT_GT(nearest_walker, 0.5) << "seed " << seed;
+    EXPECT_GT(along_pos, 0);
+    EXPECT_GT(along_neg, 0);
+    EXPECT_GT(across, 0);
+    // After the path it stops; longer runs stay clear of everything too.
+    const Eigen::Vector2d end = cam.position_xy(1000.0);
+    EXPECT_LT((end - cam.position_xy(999.0)).norm(), 1e-9);
+    EXPECT_GT(s.world.top_view_distance(end, 0.0, 2.0), 1.0);
+    for (double t = 0.0; t < 120.0; t += 0.05) {
+      const Eigen::Vector2d c = cam.position_xy(t);
+      for (const auto& w : sim::walker_states(motions, t)) {
+        EXPECT_GT((w.position - c).norm() - w.radius, 0.5) << "t " << t;
+      }
+    }
+  }
+}
+
 TEST(Simulator, WalkerPausesAndKeepsItsCruiseSpeed) {
   sim::WalkerSpec spec;
   spec.waypoints = {{{0, 0}, 2.0}, {{6, 0}, 0.0}, {{6, 3}, 0.0}, {{0, 3}, 0.0}};
