@@ -28,7 +28,7 @@ struct DepthNoise {
   bool enabled = true;
   double sigma0 = 0.001;            ///< m, constant part
   double sigma_quadratic = 0.0042;  ///< m per m^2: stereo model z^2 * 0.08 px / (385 px * 0.05 m)
-  double min_range = 0.3;           ///< m, closer -> 0 (D435 min-z ~0.28 m at 640x480)
+  double min_range = 0.3;           ///< m, closer -> 0 (D435 min-z ~0.28 m at 1280x720)
   double max_range = 8.0;           ///< m, farther -> 0
   double edge_dropout = 0.6;        ///< probability of losing a background pixel next to an edge
   double edge_dropout_foreground = 0.3;  ///< same for the foreground pixel next to an edge
