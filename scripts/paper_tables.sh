@@ -7,7 +7,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=${DYNAMAP_EVAL_DIR:-out/eval}
-SCENES=(${DYNAMAP_SCENES:-corridor l_corridor env_a env_b env_c standing crowd})
+SCENES=(${DYNAMAP_SCENES:-corridor l_corridor env_a env_b env_c standing crowd corridor_flight})
 FRESH=0
 [ "${1:-}" = "--fresh" ] && FRESH=1
 

@@ -17,7 +17,7 @@ cd "$(dirname "$0")/.."
 SEQ=${DYNAMAP_REAL_SEQ:-../shared/data/bonn_crowd}
 ROOT=${DYNAMAP_REAL_DIR:-out/real}
 SEEDS=(${DYNAMAP_SEEDS:-1 2})
-SCENES=(corridor l_corridor env_a env_b env_c standing crowd)
+SCENES=(corridor l_corridor env_a env_b env_c standing crowd corridor_flight)
 SIM=1
 [ "${1:-}" = "--no-sim" ] && SIM=0
 

@@ -898,6 +898,222 @@ TEST(Simulator, CrowdSceneRendersValidDepthDeterministically) {
   EXPECT_GE(shown, 2 * 3);  // at least three people in view in each frame
 }
 
+// ------------------------------------------------------------------ simulator: sensor model ---
+
+namespace {
+// Share of zero depth pixels among those where `select(i)` holds, over a few frames.
+template <typename Select>
+double zero_share(const sim::Scene& scene, const PoseD& pose, Select select, int frames = 4) {
+  const CameraModel cam = sim::sim_camera_model();
+  long zeros = 0, total = 0;
+  for (int f = 0; f < frames; ++f) {
+    sim::RenderOptions o;
+    o.frame_index = static_cast<std::uint64_t>(f);
+    const auto r = sim::render_frame(scene, cam, pose, {}, o);
+    for (std::size_t i = 0; i < r.range.size(); ++i) {
+      if (!select(r, i)) continue;
+      ++total;
+      zeros += r.depth.pixels[i] == 0;
+    }
+  }
+  EXPECT_GT(total, 500);
+  return total > 0 ? static_cast<double>(zeros) / total : 0.0;
+}
+}  // namespace
+
+// A D435 loses pixels on both sides of a depth edge, the background side more.
+TEST(Simulator, EdgeDropoutOnBothSidesOfDepthEdges) {
+  sim::Scene scene = wall_scene();
+  scene.world.boxes.push_back(StaticBox{{2.0, -0.5, 0.0}, {2.5, 0.5, 3.0}});  // a crate in front
+  const PoseD pose = camera_at(0, 0, 1.0, 0, 0);
+  const int W = sim::sim_camera_model().width;
+  // Horizontal neighbours at the crate's vertical edges (exact depths from the range buffer).
+  auto side = [W](const sim::RenderedFrame& r, std::size_t i, bool foreground) {
+    const auto u = static_cast<int>(i % static_cast<std::size_t>(W));
+    if (u == 0 || u + 1 >= W || r.range[i] <= 0.0f) return false;
+    for (const std::size_t n : {i - 1, i + 1}) {
+      const double jump = foreground ? r.range[n] - r.range[i] : r.range[i] - r.range[n];
+      if (r.range[n] > 0.0f && jump > 1.0) return true;
+    }
+    return false;
+  };
+  const sim::DepthNoise model;
+  const double fg = zero_share(
+      scene, pose, [&](const auto& r, std::size_t i) { return side(r, i, true); }, 20);
+  const double bg = zero_share(
+      scene, pose, [&](const auto& r, std::size_t i) { return side(r, i, false); }, 20);
+  const double inner = zero_share(scene, pose, [&](const auto& r, std::size_t i) {
+    const auto u = static_cast<int>(i % static_cast<std::size_t>(W));
+    return r.range[i] > 1.9f && r.range[i] < 2.1f && u > 300 && u < 340;
+  });
+  EXPECT_NEAR(fg, model.edge_dropout_foreground, 0.08);
+  EXPECT_NEAR(bg, model.edge_dropout, 0.08);
+  EXPECT_GT(bg, fg);
+  EXPECT_LT(inner, 0.02);
+  EXPECT_NEAR(model.random_dropout, 0.005, 1e-12);
+}
+
+// Dark or shiny surfaces lose their depth in coherent patches, at the documented share.
+TEST(Simulator, DarkSurfaceLosesCoherentPatchesAtItsShare) {
+  sim::Scene scene = wall_scene();
+  const PoseD pose = camera_at(2.0, 0, 1.0, 0, 0);  // 3 m from the wall: cells of ~15 px
+  auto on_wall = [](const sim::RenderedFrame& r, std::size_t i) {
+    return std::fabs(r.range[i] - 3.0f) < 0.01f;
+  };
+  EXPECT_LT(zero_share(scene, pose, on_wall), 0.02);  // not dark: random losses only
+  scene.world.boxes[0].dark = true;
+  const sim::DepthNoise model;
+  const double lost = zero_share(scene, pose, on_wall, 2);
+  EXPECT_NEAR(lost, model.dark_dropout + model.random_dropout * (1 - model.dark_dropout), 0.05);
+  // Coherent: runs of zeros along a row are patch-sized (i.i.d. salt at 60 % would give ~2.5).
+  const CameraModel cam = sim::sim_camera_model();
+  const auto r = sim::render_frame(scene, cam, pose, {}, sim::RenderOptions());
+  long runs = 0, zeros = 0;
+  for (int v = 100; v < 200; ++v) {  // wall rows above the floor
+    for (int u = 0; u < cam.width; ++u) {
+      if (r.depth.at(u, v) != 0) continue;
+      ++zeros;
+      runs += u == 0 || r.depth.at(u - 1, v) != 0;
+    }
+  }
+  ASSERT_GT(runs, 0);
+  const double mean_run = static_cast<double>(zeros) / runs;
+  EXPECT_GT(mean_run, 10.0);
+  EXPECT_LT(mean_run, 80.0);
+  // The patches stay on the surface: the next frame loses mostly the same pixels.
+  sim::RenderOptions next;
+  next.frame_index = 1;
+  const auto r1 = sim::render_frame(scene, cam, pose, {}, next);
+  long both = 0;
+  for (std::size_t i = 0; i < r.range.size(); ++i) {
+    both += on_wall(r, i) && r.depth.pixels[i] == 0 && r1.depth.pixels[i] == 0;
+  }
+  EXPECT_GT(static_cast<double>(both) / zeros, 0.75);
+}
+
+// Nothing nearer than the minimum range comes back, nothing beyond the maximum range; the ideal
+// sensor (--no-noise) has no holes at all on a closed surface.
+TEST(Simulator, RangeLimitsAndIdealSensor) {
+  sim::Scene scene = wall_scene();
+  scene.world.boxes[0].dark = true;
+  scene.world.boxes.push_back(StaticBox{{2.0, -0.5, 0.0}, {2.5, 0.5, 3.0}});
+  const CameraModel cam = sim::sim_camera_model();
+  const sim::DepthNoise model;
+  EXPECT_NEAR(model.min_range, 0.3, 1e-12);
+  for (double x : {1.75, 1.65, 1.5, 0.0, -4.0}) {  // crate 0.25, 0.35, 0.5 m, 2 m, 6 m away
+    const PoseD pose = camera_at(x, 0, 1.0, 0, 0);
+    sim::RenderOptions o;
+    o.frame_index = 3;
+    const auto r = sim::render_frame(scene, cam, pose, {}, o);
+    long valid = 0;
+    for (std::size_t i = 0; i < r.range.size(); ++i) {
+      const std::uint16_t d = r.depth.pixels[i];
+      valid += d > 0;
+      if (d > 0) {
+        EXPECT_GE(d, 300) << "x " << x;
+        EXPECT_LE(d, 8000) << "x " << x;
+      }
+      if (r.range[i] > 0.0f && r.range[i] < 0.3f) {
+        EXPECT_EQ(d, 0);
+      }
+    }
+    EXPECT_EQ(valid > 1000, x < 1.7) << "x " << x;  // 0.25 m: the crate fills the image
+    const auto ideal = sim::render_frame(scene, cam, pose, {}, exact());
+    long holes = 0;
+    for (std::size_t i = 0; i < ideal.range.size(); ++i) {
+      holes += ideal.range[i] > 0.0f && ideal.depth.pixels[i] == 0;
+    }
+    EXPECT_EQ(holes, 0) << "x " << x;
+  }
+  // The crate 0.25 m away fills the image centre: no depth there.
+  sim::RenderOptions o;
+  const auto close = sim::render_frame(scene, cam, camera_at(1.75, 0, 1.0, 0, 0), {}, o);
+  EXPECT_EQ(close.depth.at(320, 240), 0);
+  EXPECT_NEAR(close.range[240 * 640 + 320], 0.25, 1e-4);
+}
+
+TEST(Simulator, DarkFlagRoundTripsThroughStaticWorldFile) {
+  TempDir dir;
+  StaticWorld w;
+  w.has_floor = true;
+  w.boxes.push_back(StaticBox{{0, 0, 0}, {1, 1, 2}, true});
+  w.boxes.push_back(StaticBox{{2, 0, 0}, {3, 1, 2}});
+  w.cylinders.push_back(StaticCylinder{{5, 5}, 0.3, 0.0, 2.5, true});
+  write_static_world(dir / "w.txt", w);
+  const std::string text = slurp(dir / "w.txt");
+  EXPECT_NE(text.find("2.0000 dark\n"), std::string::npos) << text;
+  const StaticWorld r = read_static_world(dir / "w.txt");
+  ASSERT_EQ(r.boxes.size(), 2u);
+  EXPECT_TRUE(r.boxes[0].dark);
+  EXPECT_FALSE(r.boxes[1].dark);
+  ASSERT_EQ(r.cylinders.size(), 1u);
+  EXPECT_TRUE(r.cylinders[0].dark);
+  EXPECT_DOUBLE_EQ(r.cylinders[0].zmax, 2.5);
+  // Other trailing columns are still ignored.
+  write_file(dir / "v.txt", "box 0 0 0 1 1 2 glossy 7\ncylinder 1 1 0.2 0 2 x\n");
+  const StaticWorld v = read_static_world(dir / "v.txt");
+  EXPECT_FALSE(v.boxes[0].dark);
+  EXPECT_FALSE(v.cylinders[0].dark);
+}
+
+// Issue 28's flight: the camera flies down the corridor at 0.5-1.5 m/s like a multirotor, clear
+// of every box, wall and person; people walk along the corridor both ways and across it.
+TEST(Simulator, CorridorFlightFliesClearOfEverything) {
+  for (std::uint64_t seed : {1, 2}) {
+    const sim::Scene s = sim::make_scene("corridor_flight", seed);
+    ASSERT_GE(s.walkers.size(), 4u);
+    EXPECT_EQ(s.default_frames, 300);
+    int dark = 0;
+    for (const auto& b : s.world.boxes) dark += b.dark;
+    EXPECT_GE(dark, 4);
+    const sim::CameraMotion cam(s.camera);
+    std::vector<sim::WalkerMotion> motions(s.walkers.begin(), s.walkers.end());
+    double slowest = 9.0, fastest = 0.0, nearest_static = 9.0, nearest_walker = 9.0;
+    double max_tilt = 0.0;
+    int along_pos = 0, along_neg = 0, across = 0;
+    for (int f = 0; f < s.default_frames; ++f) {
+      const double t = f / s.fps;
+      const PoseD p = cam.pose(t);
+      const double v = cam.speed(t);
+      slowest = std::min(slowest, v);
+      fastest = std::max(fastest, v);
+      EXPECT_GT(p.translation.z(), 1.2);
+      EXPECT_LT(p.translation.z(), 1.5);
+      // Optical x (image right) stays nearly level: roll and sway of a few degrees.
+      const Eigen::Vector3d right = p.rotation * Eigen::Vector3d::UnitX();
+      max_tilt = std::max(max_tilt, std::asin(std::fabs(right.z())));
+      const Eigen::Vector2d c = p.translation.head<2>();
+      nearest_static = std::min(nearest_static, s.world.top_view_distance(c, 0.0, 2.0));
+      for (const auto& w : sim::walker_states(motions, t)) {
+        nearest_walker = std::min(nearest_walker, (w.position - c).norm() - w.radius);
+        along_pos += w.velocity.x() > 0.5;
+        along_neg += w.velocity.x() < -0.5;
+        across += std::fabs(w.velocity.y()) > 0.5;
+      }
+    }
+    EXPECT_GE(slowest, 0.48) << "seed " << seed;
+    EXPECT_LE(fastest, 1.52) << "seed " << seed;
+    EXPECT_GT(fastest, 1.4);
+    EXPECT_LT(slowest, 0.6);
+    EXPECT_LT(max_tilt, 0.06);
+    EXPECT_GE(nearest_static, 0.99) << "seed " << seed;
+    EXPECT_GT(nearest_walker, 0.5) << "seed " << seed;
+    EXPECT_GT(along_pos, 0);
+    EXPECT_GT(along_neg, 0);
+    EXPECT_GT(across, 0);
+    // After the path it stops; longer runs stay clear of everything too.
+    const Eigen::Vector2d end = cam.position_xy(1000.0);
+    EXPECT_LT((end - cam.position_xy(999.0)).norm(), 1e-9);
+    EXPECT_GT(s.world.top_view_distance(end, 0.0, 2.0), 1.0);
+    for (double t = 0.0; t < 120.0; t += 0.05) {
+      const Eigen::Vector2d c = cam.position_xy(t);
+      for (const auto& w : sim::walker_states(motions, t)) {
+        EXPECT_GT((w.position - c).norm() - w.radius, 0.5) << "t " << t;
+      }
+    }
+  }
+}
+
 TEST(Simulator, WalkerPausesAndKeepsItsCruiseSpeed) {
   sim::WalkerSpec spec;
   spec.waypoints = {{{0, 0}, 2.0}, {{6, 0}, 0.0}, {{6, 3}, 0.0}, {{0, 3}, 0.0}};

@@ -45,6 +45,7 @@ StaticWorld read_static_world(const std::string& path) {
       b.max = {parse_double(f[4], at, "xmax"), parse_double(f[5], at, "ymax"),
                parse_double(f[6], at, "zmax")};
       if ((b.max.array() < b.min.array()).any()) fail_at(at, "box max must be >= min");
+      b.dark = f.size() > 7 && f[7] == "dark";
       w.boxes.push_back(b);
     } else if (f[0] == "cylinder") {
       if (f.size() < 6) fail_at(at, "expected 'cylinder cx cy radius zmin zmax'");
@@ -54,6 +55,7 @@ StaticWorld read_static_world(const std::string& path) {
       c.zmin = parse_double(f[4], at, "zmin");
       c.zmax = parse_double(f[5], at, "zmax");
       if (c.radius <= 0 || c.zmax < c.zmin) fail_at(at, "bad cylinder radius or height");
+      c.dark = f.size() > 6 && f[6] == "dark";
       w.cylinders.push_back(c);
     } else {
       fail_at(at, "unknown shape '" + f[0] + "' (expected floor, box or cylinder)");
@@ -66,20 +68,21 @@ void write_static_world(const std::string& path, const StaticWorld& w) {
   std::ofstream out(path);
   if (!out) throw ToolError(path + ": cannot create file");
   out << "# static world geometry (world frame, metres, z up)\n"
-      << "# floor z\n# box xmin ymin zmin xmax ymax zmax\n# cylinder cx cy radius zmin zmax\n";
+      << "# floor z\n# box xmin ymin zmin xmax ymax zmax [dark]\n"
+      << "# cylinder cx cy radius zmin zmax [dark]\n";
   char buf[256];
   if (w.has_floor) {
     std::snprintf(buf, sizeof(buf), "floor %.4f\n", w.floor_z);
     out << buf;
   }
   for (const auto& b : w.boxes) {
-    std::snprintf(buf, sizeof(buf), "box %.4f %.4f %.4f %.4f %.4f %.4f\n", b.min.x(), b.min.y(),
-                  b.min.z(), b.max.x(), b.max.y(), b.max.z());
+    std::snprintf(buf, sizeof(buf), "box %.4f %.4f %.4f %.4f %.4f %.4f%s\n", b.min.x(), b.min.y(),
+                  b.min.z(), b.max.x(), b.max.y(), b.max.z(), b.dark ? " dark" : "");
     out << buf;
   }
   for (const auto& c : w.cylinders) {
-    std::snprintf(buf, sizeof(buf), "cylinder %.4f %.4f %.4f %.4f %.4f\n", c.center.x(),
-                  c.center.y(), c.radius, c.zmin, c.zmax);
+    std::snprintf(buf, sizeof(buf), "cylinder %.4f %.4f %.4f %.4f %.4f%s\n", c.center.x(),
+                  c.center.y(), c.radius, c.zmin, c.zmax, c.dark ? " dark" : "");
     out << buf;
   }
   if (!out) throw ToolError(path + ": write error");

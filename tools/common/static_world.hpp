@@ -3,7 +3,9 @@
 //   floor z
 //   box xmin ymin zmin xmax ymax zmax                 (axis-aligned)
 //   cylinder cx cy radius zmin zmax                   (vertical axis)
-// Comments (#) and extra trailing columns are ignored.
+// A shape may end with the keyword `dark`: a dark or shiny surface on which a stereo depth camera
+// loses pixels in patches (the simulator renders it so). Comments (#) and other trailing columns
+// are ignored, so readers that do not know the keyword read the geometry unchanged.
 #pragma once
 
 #include <string>
@@ -17,6 +19,7 @@ namespace dynamap::tools {
 struct StaticBox {
   Eigen::Vector3d min = Eigen::Vector3d::Zero();
   Eigen::Vector3d max = Eigen::Vector3d::Zero();
+  bool dark = false;  ///< dark or shiny surface: depth lost in patches
 };
 
 /// Vertical static cylinder (pillars, people who only stand).
@@ -24,6 +27,7 @@ struct StaticCylinder {
   Eigen::Vector2d center = Eigen::Vector2d::Zero();
   double radius = 0.0;
   double zmin = 0.0, zmax = 0.0;
+  bool dark = false;  ///< dark or shiny surface: depth lost in patches
 };
 
 /// The whole static world: a floor plane (z = floor_z, facing up) plus boxes and cylinders.

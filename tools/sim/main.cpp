@@ -22,7 +22,9 @@ void usage(std::FILE* f) {
   for (const auto& n : sim::scene_names()) std::fprintf(f, " %s", n.c_str());
   std::fprintf(f,
                "\n  --frames N   number of 30 Hz frames (default: 300)\n"
-               "  --seed S     noise and scene jitter seed (default: 1)\n");
+               "  --seed S     noise and scene jitter seed (default: 1)\n"
+               "  --no-noise   ideal sensor: exact depth, no noise, losses or range limits\n"
+               "               (alias --ideal-sensor)\n");
 }
 
 long long parse_arg(const char* flag, const char* value, long long lo, long long hi) {
@@ -55,7 +57,7 @@ int main(int argc, char** argv) {
         frames_given = true;
       } else if (a == "--seed") {
         opt.seed = static_cast<std::uint64_t>(parse_arg("--seed", value(), 0, 1LL << 62));
-      } else if (a == "--no-noise") {
+      } else if (a == "--no-noise" || a == "--ideal-sensor") {
         opt.noise = false;
       } else if (a == "--no-picture") {
         opt.picture = false;
@@ -90,6 +92,10 @@ int main(int argc, char** argv) {
         "(%.1f ms/frame)\n",
         s.frames, s.obstacle_lines, s.visible_obstacle_lines, s.seconds,
         1000.0 * s.seconds / s.frames);
+    std::printf(
+        "depth 0 (no measurement): median %.1f %% of the pixels per frame (rays hitting "
+        "nothing: %.1f %%)\n",
+        100.0 * s.zero_share, 100.0 * s.nothing_hit_share);
     if (s.walker_overlap_frames > 0) {
       std::printf("note: walkers overlap each other in %d frames (they do not avoid each other)\n",
                   s.walker_overlap_frames);

@@ -22,15 +22,20 @@ struct WalkerState {
   double height = 1.7;
 };
 
-/// Noise model of the simulated depth camera (see docs/tools.md).
+/// Sensor model of the simulated depth camera, a D435(i) at 640x480 (docs/simulator.md). Off
+/// (`enabled = false`, `dynamap-sim --no-noise`): the exact depth of every surface hit.
 struct DepthNoise {
   bool enabled = true;
   double sigma0 = 0.001;            ///< m, constant part
   double sigma_quadratic = 0.0042;  ///< m per m^2: stereo model z^2 * 0.08 px / (385 px * 0.05 m)
-  double min_range = 0.2;           ///< m, closer -> 0
+  double min_range = 0.3;           ///< m, closer -> 0 (D435 min-z ~0.28 m at 1280x720)
   double max_range = 8.0;           ///< m, farther -> 0
   double edge_dropout = 0.6;        ///< probability of losing a background pixel next to an edge
-  double random_dropout = 0.003;    ///< probability of losing any pixel
+  double edge_dropout_foreground = 0.3;  ///< same for the foreground pixel next to an edge
+  double random_dropout = 0.005;         ///< probability of losing any pixel
+  double dark_dropout = 0.6;             ///< share of a dark/shiny surface lost (in patches)
+  double dark_patch = 0.12;  ///< m, side of a patch cell in the surface's own coordinates
+  int dark_period = 30;      ///< frames a cell keeps its draw (staggered per cell)
 };
 
 struct RenderOptions {

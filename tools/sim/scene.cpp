@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 namespace dynamap::tools::sim {
 
 Eigen::Vector2d DensePath::at(double arc) const {
@@ -223,8 +225,55 @@ Eigen::Quaterniond camera_rotation(double yaw, double pitch) {
   return Eigen::Quaterniond(R).normalized();
 }
 
+namespace {
+
+constexpr double kFlyStep = 1.0 / 300.0;  // s, integration step of the flight's arc length
+constexpr double kFlyBrake = 0.5;         // m/s^2, deceleration to stop at the path's end
+
+// Speed of a flight's profile at time t: linear between knots, the last knot's speed held.
+double profile_speed(const std::vector<Eigen::Vector2d>& knots, double t) {
+  if (knots.empty()) return 0.0;
+  if (t <= knots.front().x()) return knots.front().y();
+  for (std::size_t k = 1; k < knots.size(); ++k) {
+    if (t < knots[k].x()) {
+      const double a = (t - knots[k - 1].x()) / (knots[k].x() - knots[k - 1].x());
+      return (1.0 - a) * knots[k - 1].y() + a * knots[k].y();
+    }
+  }
+  return knots.back().y();
+}
+
+// Arc length flown every kFlyStep seconds until the camera stops at the end of the path.
+std::vector<double> flight_table(const std::vector<Eigen::Vector2d>& knots, double length) {
+  std::vector<double> s{0.0};
+  while (length - s.back() > 1e-4 && s.size() < 2000000) {
+    const double t = kFlyStep * static_cast<double>(s.size() - 1);
+    const double v =
+        std::min(profile_speed(knots, t), std::sqrt(2.0 * kFlyBrake * (length - s.back())) + 0.01);
+    s.push_back(std::min(length, s.back() + v * kFlyStep));
+  }
+  return s;
+}
+
+}  // namespace
+
 CameraMotion::CameraMotion(const CameraSpec& spec) : spec_(spec) {
   if (!spec.hover) path_ = smooth_path(spec.path, false, 1.0);
+  if (!spec.hover && spec.fly) flown_ = flight_table(spec.speed_profile, path_.length());
+}
+
+double CameraMotion::flown(double t) const {
+  if (flown_.empty()) return 0.0;
+  const double x = std::max(0.0, t) / kFlyStep;
+  const auto k = static_cast<std::size_t>(x);
+  if (k + 1 >= flown_.size()) return flown_.back();
+  const double a = x - static_cast<double>(k);
+  return (1.0 - a) * flown_[k] + a * flown_[k + 1];
+}
+
+double CameraMotion::speed(double t) const {
+  const double h = 0.01, t0 = std::max(0.0, t - h);
+  return (flown(t + h) - flown(t0)) / (t + h - t0);
 }
 
 Eigen::Vector2d CameraMotion::position_xy(double t) const {
@@ -232,6 +281,7 @@ Eigen::Vector2d CameraMotion::position_xy(double t) const {
     return spec_.position.head<2>() +
            Eigen::Vector2d(0.02 * std::sin(0.7 * t), 0.02 * std::sin(1.1 * t + 0.5));
   }
+  if (spec_.fly) return path_.at(flown(t));
   return path_.at(spec_.speed * t);
 }
 
@@ -239,12 +289,36 @@ double CameraMotion::yaw(double t) const {
   if (spec_.hover) {
     return spec_.yaw + spec_.yaw_sweep * std::sin(2 * M_PI * t / spec_.sweep_period);
   }
+  if (spec_.fly) {  // heading along the path, a slow +-2.9 degree wobble
+    const double s = flown(t);
+    const Eigen::Vector2d d = path_.at(s + 0.4) - path_.at(s - 0.4);
+    return std::atan2(d.y(), d.x()) + 0.05 * std::sin(2 * M_PI * t / 2.3);
+  }
   const double s = std::min(spec_.speed * t, path_.length());
   const Eigen::Vector2d d = path_.at(s + 0.4) - path_.at(s - 0.4);
   return std::atan2(d.y(), d.x()) + 0.02 * std::sin(2 * M_PI * t / 1.8);
 }
 
+// A multirotor: height sways by a few centimetres, pitch and roll by about 1-2 degrees, and the
+// nose dips into accelerations (pitch + atan(a / g)) and rises when it brakes.
+PoseD CameraMotion::fly_pose(double t) const {
+  PoseD p;
+  const Eigen::Vector2d xy = position_xy(t);
+  const double z = spec_.position.z() + 0.04 * std::sin(2 * M_PI * t / 3.1) +
+                   0.01 * std::sin(2 * M_PI * t / 0.7);
+  p.translation = Eigen::Vector3d(xy.x(), xy.y(), z);
+  const double accel = (speed(t + 0.15) - speed(t - 0.15)) / 0.3;
+  const double pitch =
+      spec_.pitch + 0.02 * std::sin(2 * M_PI * t / 1.7 + 0.4) + std::atan(accel / 9.81);
+  const double roll = 0.03 * std::sin(2 * M_PI * t / 2.9 + 1.1);
+  p.rotation = (camera_rotation(yaw(t), pitch) *
+                Eigen::Quaterniond(Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ())))
+                   .normalized();
+  return p;
+}
+
 PoseD CameraMotion::pose(double t) const {
+  if (!spec_.hover && spec_.fly) return fly_pose(t);
   PoseD p;
   const Eigen::Vector2d xy = position_xy(t);
   const double z = spec_.hover ? spec_.position.z() + 0.01 * std::sin(1.3 * t)

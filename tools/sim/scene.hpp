@@ -76,9 +76,11 @@ class WalkerMotion {
   double period_ = 0.0;
 };
 
-/// How the camera moves: hovering in place with a slow yaw sweep, or carried along a path.
+/// How the camera moves: hovering in place with a slow yaw sweep, carried along a path, or
+/// flying along a path like a multirotor (`fly`: speed profile, sway, tilt into accelerations).
 struct CameraSpec {
   bool hover = true;
+  bool fly = false;                        ///< flying along `path` (with hover = false)
   Eigen::Vector3d position = {0, 0, 1.3};  ///< hover position (path: z is the height)
   double yaw = 0.0;                        ///< hover heading (rad, 0 = +x)
   double yaw_sweep = 0.0;                  ///< hover: amplitude of a sine yaw sweep (rad)
@@ -87,6 +89,9 @@ struct CameraSpec {
   double speed = 0.5;                      ///< carried: walking speed (m/s); stops at the end
   double pitch = 0.12;                     ///< downward tilt of the optical axis (rad)
   double bob = 0.015;                      ///< carried: vertical bob amplitude (m)
+  /// fly: (time s, speed m/s) knots, linear in between, the last speed held; the camera slows
+  /// at 0.5 m/s^2 to stop at the end of the path.
+  std::vector<Eigen::Vector2d> speed_profile;
 };
 
 /// A complete built-in scene.
@@ -107,10 +112,14 @@ class CameraMotion {
   PoseD pose(double t) const;
   Eigen::Vector2d position_xy(double t) const;
   double yaw(double t) const;
+  double speed(double t) const;  ///< fly: speed along the path (m/s)
 
  private:
+  double flown(double t) const;  // fly: arc length at time t
+  PoseD fly_pose(double t) const;
   CameraSpec spec_;
   DensePath path_;
+  std::vector<double> flown_;  // fly: arc length every kFlyStep seconds
 };
 
 /// Optical-frame rotation for a camera looking along yaw (about +z) tilted down by pitch.

@@ -21,8 +21,9 @@ struct Builder {
     scene.world.has_floor = true;
     scene.world.floor_z = 0.0;
   }
-  void box(double x0, double y0, double x1, double y1, double h) {
-    scene.world.boxes.push_back(StaticBox{{x0, y0, 0.0}, {x1, y1, h}});
+  // `dark`: a dark or shiny surface (the depth camera loses it in patches).
+  void box(double x0, double y0, double x1, double y1, double h, bool dark = false) {
+    scene.world.boxes.push_back(StaticBox{{x0, y0, 0.0}, {x1, y1, h}, dark});
   }
   // Wall along an axis-aligned segment, thickness outward of the given inner line.
   void wall_x(double x0, double x1, double y, bool outward_positive) {
@@ -40,8 +41,8 @@ struct Builder {
     wall_y(y0, y1, x0, false);
     wall_y(y0, y1, x1, true);
   }
-  void pillar(double x, double y, double r = 0.25, double h = kWallHeight) {
-    scene.world.cylinders.push_back(StaticCylinder{{x, y}, r, 0.0, h});
+  void pillar(double x, double y, double r = 0.25, double h = kWallHeight, bool dark = false) {
+    scene.world.cylinders.push_back(StaticCylinder{{x, y}, r, 0.0, h, dark});
   }
   void standing_person(double x, double y, double h = 1.75) { pillar(x, y, 0.25, h); }
   void walker(std::vector<Waypoint> wps, double speed, double offset = 0.0) {
@@ -100,6 +101,13 @@ struct Builder {
     }
   }
   int lanes = 0, groups = 0;
+  // There and back along a side lane of corridor_flight (y = 1.05 m on the side of `side`):
+  // from a bay at x0 to a bay at x1 (0.9 m deep into each, standing 1 s there).
+  static std::vector<Waypoint> side_lane(double x0, double x1, double side) {
+    const double lane = 1.05 * side, bay = 1.95 * side;
+    return {{{x0, bay}, 1.0}, {{x0, lane}, 0.0}, {{x1, lane}, 0.0},
+            {{x1, bay}, 1.0}, {{x1, lane}, 0.0}, {{x0, lane}, 0.0}};
+  }
 
   void hover(double x, double y, double z, double yaw, double sweep, double pitch = 0.12) {
     auto& c = scene.camera;
@@ -116,6 +124,13 @@ struct Builder {
     c.position = {0, 0, z};
     c.speed = speed;
     c.pitch = pitch;
+  }
+  // Flying like a multirotor along a path at height z with a (time, speed) profile.
+  void fly(std::vector<Eigen::Vector2d> path, double z, std::vector<Eigen::Vector2d> profile,
+           double pitch) {
+    carried(std::move(path), z, 0.0, pitch);
+    scene.camera.fly = true;
+    scene.camera.speed_profile = std::move(profile);
   }
 };
 
@@ -160,13 +175,13 @@ Scene env_a() {
   b.pillar(6.5, -1.8);
   b.pillar(9.0, 2.4);
   b.pillar(10.5, -2.2);
-  b.pillar(12.0, 0.8, 0.3);
-  b.box(8.4, -0.4, 9.2, 0.4, 1.2);   // crate
-  b.box(4.0, -3.8, 4.8, -3.0, 1.0);  // crate
-  b.box(11.8, 3.0, 12.8, 4.0, 1.5);  // crate
-  b.box(5.5, 3.6, 7.2, 4.1, 1.8);    // shelf along the north wall
-  b.box(7.0, -4.7, 8.6, -4.2, 1.8);  // shelf along the south wall
-  b.box(2.6, -2.6, 3.2, -2.0, 0.8);  // low box
+  b.pillar(12.0, 0.8, 0.3, kWallHeight, true);  // glossy
+  b.box(8.4, -0.4, 9.2, 0.4, 1.2, true);        // dark crate
+  b.box(4.0, -3.8, 4.8, -3.0, 1.0);             // crate
+  b.box(11.8, 3.0, 12.8, 4.0, 1.5);             // crate
+  b.box(5.5, 3.6, 7.2, 4.1, 1.8);               // shelf along the north wall
+  b.box(7.0, -4.7, 8.6, -4.2, 1.8);             // shelf along the south wall
+  b.box(2.6, -2.6, 3.2, -2.0, 0.8);             // low box
   b.standing_person(6.8, 1.2);
   b.hover(2.0, 0.0, 1.4, 0.0, 0.20);
   b.walker({{{7.6, -1.1}}, {{10.0, -1.1}}, {{10.0, 1.1}}, {{7.6, 1.1}, 1.0}}, 1.0, 0.0);
@@ -184,7 +199,7 @@ Scene env_b() {
   b.pillar(5.5, 1.5);
   b.pillar(8.5, -1.5);
   b.box(6.8, 0.2, 7.6, 1.0, 1.1);
-  b.box(9.5, 1.8, 10.5, 2.8, 1.4);
+  b.box(9.5, 1.8, 10.5, 2.8, 1.4, true);  // dark crate
   b.carried({{0.8, -0.8}, {2.5, -0.2}, {4.0, 0.6}}, 1.35, 0.3);
   b.walker(
       {{{4.5, -0.6}}, {{8.0, -0.4}}, {{10.8, -0.2}}, {{11.2, -2.6}}, {{7.0, -2.8}}, {{5.2, -2.2}}},
@@ -215,7 +230,7 @@ Scene standing() {
   b.standing_person(6.0, -1.2, 1.65);
   b.standing_person(8.0, 1.6, 1.85);
   b.box(7.0, -0.3, 7.8, 0.5, 1.0);
-  b.box(9.0, -2.8, 10.0, -1.8, 1.3);
+  b.box(9.0, -2.8, 10.0, -1.8, 1.3, true);  // dark crate
   b.carried({{0.8, -1.5}, {2.5, -0.5}, {3.2, 1.8}}, 1.35, 0.35);
   return b.scene;
 }
@@ -227,7 +242,7 @@ Scene crowd() {
             "hovering");
   b.room(-1.5, -6.5, 8.2, 6.5);  // the far wall just within the camera's 8 m
   b.pillar(7.6, -3.5, 0.3);
-  b.box(7.4, 4.2, 8.0, 5.0, 0.9);
+  b.box(7.4, 4.2, 8.0, 5.0, 0.9, true);  // dark crate
   // The group standing talking (static: in static_world.txt, not in obstacles.txt).
   b.standing_person(7.35, 1.6);
   b.standing_person(7.3, 2.3, 1.68);
@@ -245,10 +260,44 @@ Scene crowd() {
   return b.scene;
 }
 
+Scene corridor_flight() {
+  Builder b("corridor_flight",
+            "5 m wide corridor lined with boxes (some dark); camera flying down the middle at "
+            "0.5-1.5 m/s; people walking along it both ways and across it, turning back in "
+            "front of boxes and walls");
+  // Inner corridor x in [0, 28], y in [-2.5, 2.5]; boxes 1 m deep and 2 m high along both
+  // walls leave a free middle |y| < 1.5 and bays between them.
+  b.wall_x(-0.2, 28.2, -2.5, false);
+  b.wall_x(-0.2, 28.2, 2.5, true);
+  b.wall_y(-2.5, 2.5, 0.0, false);
+  b.wall_y(-2.5, 2.5, 28.0, true);
+  const double north[][3] = {{2.0, 3.0, 0},   {4.2, 6.0, 1},   {7.0, 8.0, 0},
+                             {9.5, 11.3, 0},  {12.5, 13.5, 1}, {15.0, 16.8, 0},
+                             {18.0, 19.0, 0}, {20.5, 22.3, 1}, {24.0, 25.0, 0}};
+  const double south[][3] = {{1.5, 3.3, 0},   {4.5, 5.5, 0},   {6.8, 8.6, 1},
+                             {10.0, 11.0, 0}, {12.2, 14.0, 0}, {15.5, 16.5, 1},
+                             {18.0, 19.8, 0}, {21.5, 22.5, 0}, {24.0, 25.8, 1}};
+  for (const auto& x : north) b.box(x[0], 1.5, x[1], 2.5, 2.0, x[2] > 0);
+  for (const auto& x : south) b.box(x[0], -2.5, x[1], -1.5, 2.0, x[2] > 0);
+  // Flying down the middle with a gentle weave: 0.6 m/s, up to 1.5, down to 0.5, on at 1.0.
+  b.fly({{1.0, 0.0}, {4.0, 0.12}, {8.0, -0.12}, {11.0, 0.08}, {13.0, 0.0}}, 1.35,
+        {{0.0, 0.6}, {2.5, 1.5}, {5.0, 1.5}, {7.0, 0.5}, {8.5, 0.5}, {10.0, 1.0}}, 0.1);
+  // Along the corridor in its side lanes (|y| = 1.05 m, 0.66 m clear of the camera), there and
+  // back between two bays, standing a moment in each before turning back in front of its wall.
+  b.walker(Builder::side_lane(3.6, 11.9, 1.0), 1.0, 12.0);
+  b.walker(Builder::side_lane(3.9, 11.6, -1.0), 1.3, 2.0);
+  // Across it beyond where the camera stops (x = 13 m): wall to wall, turning back in front
+  // of the walls; and from a bay to the front of a box and back.
+  b.walker({{{14.5, 1.95}, 1.0}, {{14.5, -1.95}, 0.8}}, 0.9, 1.0);
+  b.walker({{{17.4, -1.95}, 1.0}, {{16.0, 1.1}, 0.5}}, 1.2, 3.0);
+  return b.scene;
+}
+
 }  // namespace
 
 std::vector<std::string> scene_names() {
-  return {"corridor", "l_corridor", "env_a", "env_b", "env_c", "standing", "crowd"};
+  return {"corridor", "l_corridor", "env_a", "env_b",
+          "env_c",    "standing",   "crowd", "corridor_flight"};
 }
 
 Scene make_scene(const std::string& name, std::uint64_t seed) {
@@ -267,6 +316,8 @@ Scene make_scene(const std::string& name, std::uint64_t seed) {
     s = standing();
   } else if (name == "crowd") {
     s = crowd();
+  } else if (name == "corridor_flight") {
+    s = corridor_flight();
   } else {
     std::string known;
     for (const auto& n : scene_names()) known += " " + n;

@@ -1,5 +1,6 @@
 #include "sim/writer.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +18,13 @@ std::string fmt_stamp(double t) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.6f", t);
   return buf;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
 }
 
 std::ofstream open_out(const std::string& path) {
@@ -68,6 +76,7 @@ SimulateSummary simulate(const Scene& scene, const std::string& out_dir,
   SimulateSummary summary;
   std::vector<TopViewPath> gt_paths(motions.size());
   std::vector<Eigen::Vector2d> cam_path;
+  std::vector<double> zero_shares, nothing_shares;
   for (int f = 0; f < opt.frames; ++f) {
     const double t = f / scene.fps;
     const std::string stamp = fmt_stamp(opt.start_stamp + t);
@@ -79,6 +88,9 @@ SimulateSummary simulate(const Scene& scene, const std::string& out_dir,
     ro.noise.enabled = opt.noise;
     const RenderedFrame frame = render_frame(scene, cam, pose, walkers, ro);
 
+    const auto n = static_cast<double>(frame.depth.pixels.size());
+    zero_shares.push_back(std::count(frame.depth.pixels.begin(), frame.depth.pixels.end(), 0) / n);
+    nothing_shares.push_back(std::count(frame.range.begin(), frame.range.end(), 0.0f) / n);
     const std::string name = "depth/" + stamp + ".png";
     write_png16(join_path(out_dir, name), frame.depth, opt.png_compression);
     if (opt.picture && f == opt.frames / 2) {
@@ -125,6 +137,8 @@ SimulateSummary simulate(const Scene& scene, const std::string& out_dir,
   gt_txt.flush();
   obs_txt.flush();
   if (!depth_txt || !gt_txt || !obs_txt) throw ToolError(out_dir + ": write error");
+  summary.zero_share = median(zero_shares);
+  summary.nothing_hit_share = median(nothing_shares);
 
   if (opt.picture) {
     TopViewScene pic;

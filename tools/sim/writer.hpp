@@ -29,6 +29,8 @@ struct SimulateSummary {
   std::size_t obstacle_lines = 0;
   std::size_t visible_obstacle_lines = 0;  ///< visible >= 0.5
   int walker_overlap_frames = 0;           ///< frames where two walkers' cylinders overlap
+  double zero_share = 0.0;                 ///< share of depth pixels that are 0, median over frames
+  double nothing_hit_share = 0.0;          ///< share of pixels whose ray hits nothing, median
   double seconds = 0.0;
 };
 
