@@ -15,6 +15,7 @@
 
 #include "common/map_io.hpp"
 #include "common/map_truth.hpp"
+#include "common/png_io.hpp"
 #include "common/static_world.hpp"
 #include "common/text_io.hpp"
 #include "dynamap/occupancy_map.hpp"
@@ -260,6 +261,70 @@ TEST(MapFrameChecks, OccupiedThenFreeBoxVoxelIsErasedAndFreeThrough) {
   n = checker.check(*map, camera, 3.f);
   EXPECT_EQ(n.erased_all, 0u);
   EXPECT_EQ(n.free_through_all, 1u);
+}
+
+// The whole --map evaluation on a hand-made two-frame sequence: an 8 x 6 camera at (0, 0, 1)
+// looking along +x at a wall x in [2.0, 2.2]; depth 2.05 m (voxel i = 20, a surface voxel), the
+// bottom row without measurement. Column u ends at y = 2.05 (3.5 - u) / 4, row v at
+// z = 1 + 2.05 (2.5 - v) / 4: 8 x 5 distinct wall voxels. A walker stands at x = 1.05 in column
+// 0 at frame 1 and in column 7 at frame 2 (the last): its end points are 5 voxels each.
+TEST(MapScore, HandMadeSequenceObservedAsTheMapSamplesIt) {
+  TempDir seq, res;
+  write_file(seq / "camera.txt",
+             "fx 4\nfy 4\ncx 3.5\ncy 2.5\nwidth 8\nheight 6\ndepth_factor 1000\nworld_z_up 1\n");
+  const std::string q = " -0.5 0.5 -0.5 0.5\n";  // optical z = world x, x = -y, y = -z
+  write_file(seq / "groundtruth.txt", "1.0 0 0 1" + q + "2.0 0 0 1" + q);
+  write_file(seq / "depth.txt", "1.000000 d1.png\n2.000000 d2.png\n");
+  for (int f = 1; f <= 2; ++f) {
+    Image16 d;
+    d.width = 8;
+    d.height = 6;
+    d.pixels.assign(48, 2050);
+    for (int u = 0; u < 8; ++u) d.at(u, 5) = 0;
+    for (int v = 0; v < 5; ++v) d.at(f == 1 ? 0 : 7, v) = 1050;
+    write_png16(seq / ("d" + std::to_string(f) + ".png"), d);
+  }
+  write_file(seq / "static_world.txt", "floor 0\nbox 2.0 -3 0 2.2 3 3\n");
+  write_file(seq / "obstacles.txt",
+             "1.000000 1 1.05 0.9 1.0 0 -1 0 0.3 0.3 2.0 1.0\n"
+             "2.000000 1 1.05 -0.9 1.0 0 -1 0 0.3 0.3 2.0 1.0\n");
+  // Every pixel (stride 1, margin 0), as map_summary.txt says.
+  write_map_summary(res / "map_summary.txt", {{"resolution", "0.1"},
+                                              {"min_depth", "0.5"},
+                                              {"max_depth", "5"},
+                                              {"pixel_stride", "1"},
+                                              {"pixel_margin", "0"},
+                                              {"local_half_extent", "5 5 3"}});
+  // The map holds 39 of the 40 wall voxels (not column 3, row 2: j = 2, k = 12, whose
+  // neighbours are no wall voxels: columns 2 and 4 are j = 7 and -3, rows 1 and 3 k = 17 and 7)
+  // and one voxel of the walker's frame-1 column (row 0: i = 10, j = 9, k = 16).
+  std::vector<MapVoxel> map;
+  for (int u = 0; u < 8; ++u) {
+    for (int v = 0; v < 5; ++v) {
+      if (u == 3 && v == 2) continue;
+      const Eigen::Vector3d p(2.05, 2.05 * (3.5 - u) / 4, 1 + 2.05 * (2.5 - v) / 4);
+      map.push_back({voxel_centre(voxel_of(p, 0.1), 0.1).cast<float>(), 0.9f});
+    }
+  }
+  map.push_back({voxel_centre(Eigen::Vector3i(10, 9, 16), 0.1).cast<float>(), 0.9f});
+  write_map_ply(res / "map.ply", map);
+  const eval::MapAccuracy r = eval::evaluate_map(seq / "", res / "");
+  // SA = 39 / 40 (strict too: the missing voxel has no occupied neighbour); no floor seen.
+  EXPECT_EQ(r.shape_observed, 40u);
+  EXPECT_EQ(r.floor_observed, 0u);
+  EXPECT_DOUBLE_EQ(r.sa, 39.0 / 40.0);
+  EXPECT_DOUBLE_EQ(r.sa_strict, 39.0 / 40.0);
+  // Walker: frame 1's 5 voxels are scored, 1 still held: DA = 4 / 5; frame 2's 5 voxels touch
+  // the walker's box at the last frame and are left out.
+  EXPECT_EQ(r.walker_observed, 5u);
+  EXPECT_EQ(r.walker_cleared, 4u);
+  EXPECT_EQ(r.walker_in_final, 5u);
+  EXPECT_DOUBLE_EQ(r.da, 0.8);
+  EXPECT_FALSE(r.frames_available);  // no map_frames.csv
+  // Without static_world.txt: a clear error naming it.
+  fs::remove(seq / "static_world.txt");
+  EXPECT_NE(error_of([&] { eval::evaluate_map(seq / "", res / ""); }).find("static_world.txt"),
+            std::string::npos);
 }
 
 }  // namespace
