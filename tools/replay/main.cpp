@@ -494,9 +494,9 @@ int run(const Options& o) {
       pictures > 0 ? (", " + std::to_string(pictures) + " pictures in frames/").c_str() : "");
   std::printf(
       "  final map: %zu occupied voxels (map.ply, map_summary.txt); local region: %zu occupied, "
-      "%zu free, %zu unknown\n",
+      "%zu free, %zu unknown; written in %.1f ms\n",
       map_counts.occupied, map_counts.region_occupied, map_counts.region_free,
-      map_counts.region_unknown);
+      map_counts.region_unknown, 1e3 * map_counts.seconds);
   if (map_log != nullptr) std::printf("  %s (map_frames.csv)\n", map_log->summary().c_str());
   return skipped.total() > 0 ? kExitCompletedWithGaps : 0;
 }

@@ -95,6 +95,7 @@ std::string MapFrameLog::summary() const {
 FinalMapCounts write_final_map(const OccupancyMap& map, const PipelineConfig& config,
                                const Pose& last_pose, std::size_t frames,
                                const std::string& out_dir) {
+  const double t0 = wall_seconds();
   std::vector<MapVoxel> voxels;
   map.for_each_occupied([&](std::uint64_t, const Eigen::Vector3f& c) {
     MapVoxel v;
@@ -106,7 +107,7 @@ FinalMapCounts write_final_map(const OccupancyMap& map, const PipelineConfig& co
   write_map_ply(join_path(out_dir, "map.ply"), voxels);
   const OccupancyMapConfig& m = config.map;
   const Eigen::Vector3f cam = last_pose.translation;
-  const FinalMapCounts n = count_region(map, cam, m.local_half_extent);
+  FinalMapCounts n = count_region(map, cam, m.local_half_extent);
   auto triple = [](const Eigen::Vector3f& v) {
     return num(v.x()) + " " + num(v.y()) + " " + num(v.z());
   };
@@ -129,6 +130,7 @@ FinalMapCounts write_final_map(const OccupancyMap& map, const PipelineConfig& co
       {"blocks_in_use", std::to_string(map.blocks_in_use())},
       {"blocks_evicted", std::to_string(map.total_blocks_evicted())}};
   write_map_summary(join_path(out_dir, "map_summary.txt"), entries);
+  n.seconds = wall_seconds() - t0;
   return n;
 }
 

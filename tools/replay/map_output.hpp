@@ -44,6 +44,7 @@ class MapFrameLog {
 struct FinalMapCounts {
   std::size_t occupied = 0;  ///< whole map
   std::size_t region = 0, region_occupied = 0, region_free = 0, region_unknown = 0;
+  double seconds = 0.0;  ///< time write_final_map() took
 };
 
 /// Writes DIR/map.ply (every occupied voxel centre and its probability) and
