@@ -2,7 +2,8 @@
 # The paper's evaluation on our simulated scenes: simulates every built-in scene (once; pass
 # --fresh to re-simulate), replays it through the pipeline, evaluates it, and prints Table I
 # (position/velocity error per scene), Table II (runtime per module) and the prediction failure
-# ratio of the Markov predictor against the linear baseline. Stage times are thread CPU time
+# ratio of the Markov predictor against the linear baseline, and the map accuracy table (SA, DA,
+# AA of the final map, dynamap-eval --map). Stage times are thread CPU time
 # (dynamap-replay --cpu-clock), so a shared machine's load does not inflate Table II. Output in ${DYNAMAP_EVAL_DIR:-out/eval}.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,9 +25,9 @@ for s in "${SCENES[@]}"; do
   fi
   echo "== replaying $s =="
   "$BIN/dynamap-replay" "$ROOT/$s" --out "$ROOT/${s}_out" --quiet --cpu-clock | grep -E "frames:|tracks:|total|wall time"
-  "$BIN/dynamap-eval" "$ROOT/$s" "$ROOT/${s}_out" --picture >/dev/null
+  "$BIN/dynamap-eval" "$ROOT/$s" "$ROOT/${s}_out" --picture --map >/dev/null
 done
 echo
 "$BIN/dynamap-tables" "$ROOT" "${SCENES[@]}"
 echo
-echo "tables written to $ROOT/tables.md; pictures: $ROOT/*_out/topview.png and eval_topview.png"
+echo "tables written to $ROOT/tables.md; pictures: $ROOT/*_out/topview.png, eval_topview.png and map_topview.png"

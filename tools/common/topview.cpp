@@ -28,6 +28,8 @@ constexpr Rgb kDynamic{0.85, 0.08, 0.08};
 constexpr Rgb kStaticTrack{0.15, 0.45, 0.85};
 constexpr Rgb kText{0.10, 0.10, 0.10};
 constexpr Rgb kGrid{0.90, 0.90, 0.90};
+constexpr Rgb kMissingStatic{0.90, 0.05, 0.05};
+constexpr Rgb kHeldDynamic{1.00, 0.55, 0.00};
 
 void set(cairo_t* cr, const Rgb& c, double alpha = 1.0) {
   cairo_set_source_rgba(cr, c.r, c.g, c.b, alpha);
@@ -147,6 +149,23 @@ void legend_entry(cairo_t* cr, double x, double y, const Rgb& c, Swatch kind,
   text(cr, x + 30, y, label, 13);
 }
 
+// Map cells in one colour, with a thin dark outline so a lone cell stands out.
+void draw_cells(cairo_t* cr, const Frame& f, const std::vector<Eigen::Vector3d>& cells,
+                double cell_px, const Rgb& c) {
+  if (cells.empty()) return;
+  const double px = std::max(2.0, cell_px);
+  cairo_save(cr);
+  for (const auto& p : cells) {
+    cairo_rectangle(cr, f.px(p.x()) - 0.5 * px, f.py(p.y()) - 0.5 * px, px, px);
+  }
+  set(cr, c, 0.9);
+  cairo_fill_preserve(cr);
+  cairo_set_line_width(cr, 0.5);
+  set(cr, kText, 0.6);
+  cairo_stroke(cr);
+  cairo_restore(cr);
+}
+
 }  // namespace
 
 void render_top_view(const TopViewScene& s, const std::string& png_path, int plot_px) {
@@ -157,7 +176,9 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
     lo = s.bounds_min;
     hi = s.bounds_max;
   } else {
-    for (const auto& c : s.occupied_cells) grow(&lo, &hi, c.head<2>());
+    for (const auto* cells : {&s.occupied_cells, &s.missing_static_cells, &s.held_dynamic_cells}) {
+      for (const auto& c : *cells) grow(&lo, &hi, c.head<2>());
+    }
     for (const auto& b : s.static_world.boxes) {
       grow(&lo, &hi, b.min.head<2>());
       grow(&lo, &hi, b.max.head<2>());
@@ -264,6 +285,8 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
     cairo_rectangle(cr, f.px(c.x()) - 0.5 * cell_px, f.py(c.y()) - 0.5 * cell_px, cell_px, cell_px);
   }
   cairo_fill(cr);
+  draw_cells(cr, f, s.missing_static_cells, cell_px, kMissingStatic);
+  draw_cells(cr, f, s.held_dynamic_cells, cell_px, kHeldDynamic);
 
   // --- camera: trajectory and field of view ---------------------------------------------------
   if (s.show_camera) {
@@ -426,6 +449,9 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
       y += 24;
     };
     entry(!s.occupied_cells.empty(), kMapCell, Swatch::kFill, "occupied map cell");
+    entry(!s.missing_static_cells.empty(), kMissingStatic, Swatch::kFill,
+          "static voxel seen, not in map");
+    entry(!s.held_dynamic_cells.empty(), kHeldDynamic, Swatch::kFill, "walker voxel still in map");
     entry(!s.static_world.boxes.empty() || !s.static_world.cylinders.empty(), kStaticEdge,
           Swatch::kFill, "static world (true)");
     entry(!s.camera_trajectory.empty(), kCamera, Swatch::kLine, "camera path (dot: start)");

@@ -36,7 +36,11 @@ struct TopViewScene {
   double cell_size = 0.1;                       ///< edge of an occupied map cell (m)
   std::vector<Eigen::Vector3d> occupied_cells;  ///< cell centres (z unused except for filtering)
   StaticWorld static_world;                     ///< true static geometry (simulated data)
-  std::vector<TopViewObstacle> obstacles;       ///< tracked obstacles (dynamic and static)
+  /// Map errors (dynamap-eval --map): observed true static voxels the map does not hold (red)
+  /// and voxels walkers occupied that the map still holds (orange); centres, drawn as cells.
+  std::vector<Eigen::Vector3d> missing_static_cells;
+  std::vector<Eigen::Vector3d> held_dynamic_cells;
+  std::vector<TopViewObstacle> obstacles;           ///< tracked obstacles (dynamic and static)
   std::vector<TopViewObstacle> ground_truth_boxes;  ///< true obstacle boxes (simulated data)
   std::vector<TopViewPath> tracked_paths;           ///< history of dynamic tracks
   std::vector<TopViewPath> ground_truth_paths;      ///< true obstacle paths

@@ -15,6 +15,7 @@
 #include "common/static_world.hpp"
 #include "common/text_io.hpp"
 #include "common/topview.hpp"
+#include "eval/map_accuracy.hpp"
 
 namespace dynamap::tools::eval {
 namespace {
@@ -400,8 +401,42 @@ std::string format_table(const EvalResult& r) {
   return o.str();
 }
 
+namespace {
+
+// The map accuracy keys of metrics.json (each line ends with ",\n").
+std::string map_json(const MapAccuracy& m) {
+  std::ostringstream o;
+  auto frames = [&](std::size_t v) {
+    return m.frames_available ? std::to_string(v) : std::string("null");
+  };
+  o << "  \"sa\": " << json_num(m.sa) << ",\n"
+    << "  \"sa_strict\": " << json_num(m.sa_strict) << ",\n"
+    << "  \"sa_shapes\": " << json_num(m.sa_shapes) << ",\n"
+    << "  \"sa_floor\": " << json_num(m.sa_floor) << ",\n"
+    << "  \"da\": " << json_num(m.da) << ",\n"
+    << "  \"aa\": " << json_num(m.aa) << ",\n"
+    << "  \"erased_max\": " << frames(m.erased_max) << ",\n"
+    << "  \"free_through_max\": " << frames(m.free_through_max) << ",\n"
+    << "  \"erased_all_max\": " << frames(m.erased_all_max) << ",\n"
+    << "  \"free_through_all_max\": " << frames(m.free_through_all_max) << ",\n"
+    << "  \"free_through_final\": " << frames(m.free_through_final) << ",\n"
+    << "  \"map\": {\"static_observed\": " << m.static_observed
+    << ", \"static_held\": " << m.static_held
+    << ", \"static_held_strict\": " << m.static_held_strict
+    << ", \"shape_observed\": " << m.shape_observed << ", \"floor_observed\": " << m.floor_observed
+    << ", \"walker_observed\": " << m.walker_observed
+    << ", \"walker_cleared\": " << m.walker_cleared
+    << ", \"walker_in_final_box\": " << m.walker_in_final
+    << ", \"checked_frames\": " << m.checked_frames << ", \"settings\": " << json_string(m.settings)
+    << "},\n";
+  return o.str();
+}
+
+}  // namespace
+
 void write_metrics_json(const std::string& path, const EvalResult& r, const std::string& seq_dir,
-                        const std::string& result_dir, const std::string& obstacles_file) {
+                        const std::string& result_dir, const std::string& obstacles_file,
+                        const MapAccuracy* map) {
   std::ofstream o(path);
   if (!o) throw ToolError(path + ": cannot create file");
   auto pred = [&](const PredictionMetrics& p) {
@@ -441,7 +476,7 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
     << (r.linear.available ? json_num(r.linear.failure_ratio) : "null") << ",\n"
     << "  \"prediction\": " << pred(r.markov) << ",\n"
     << "  \"prediction_linear\": " << pred(r.linear) << ",\n"
-    << "  \"notes\": [";
+    << (map != nullptr && map->available ? map_json(*map) : std::string()) << "  \"notes\": [";
   for (std::size_t i = 0; i < r.notes.size(); ++i) {
     o << (i ? ", " : "") << json_string(r.notes[i]);
   }

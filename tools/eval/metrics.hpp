@@ -70,9 +70,13 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
 /// Human-readable table.
 std::string format_table(const EvalResult& r);
 
-/// metrics.json (NaN written as null).
+struct MapAccuracy;
+
+/// metrics.json (NaN written as null); with `map` (dynamap-eval --map) also the map accuracy
+/// keys sa, sa_strict, sa_shapes, sa_floor, da, aa, erased_max, free_through_max, ... and map{}.
 void write_metrics_json(const std::string& path, const EvalResult& r, const std::string& seq_dir,
-                        const std::string& result_dir, const std::string& obstacles_file = "");
+                        const std::string& result_dir, const std::string& obstacles_file = "",
+                        const MapAccuracy* map = nullptr);
 
 /// Optional picture: static world, true paths, tracked dynamic paths, final boxes, predictions.
 void write_eval_picture(const std::string& png_path, const std::string& seq_dir,

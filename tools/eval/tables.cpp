@@ -4,11 +4,15 @@
 //   Table I   position and velocity error per scene (+ recall, precision, MOTA, ID switches)
 //   Table II  runtime per module (median and p99 over all frames of all scenes, from timing.csv)
 //   Failure   Markov vs linear prediction failure ratio per environment
+//   Map       SA, DA, AA of the final map and the per-frame map checks' maxima, per scene, from
+//             ROOT/SCENE_out/metrics.json when `dynamap-eval --map` wrote them there
 // The same text is written to ROOT/tables.md.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -56,6 +60,36 @@ void read_timing(const std::string& path, std::vector<std::string>& names,
   }
 }
 
+// A number of metrics.json by key (`"key": value` at any depth; the first one): NaN when the
+// key is absent or null. dynamap-eval writes each key once per line.
+double json_value(const std::string& text, const std::string& key) {
+  const std::string needle = "\"" + key + "\": ";
+  const std::size_t at = text.find(needle);
+  if (at == std::string::npos) return std::numeric_limits<double>::quiet_NaN();
+  const char* start = text.c_str() + at + needle.size();
+  char* end = nullptr;
+  const double v = std::strtod(start, &end);
+  return end == start ? std::numeric_limits<double>::quiet_NaN() : v;
+}
+
+// One row of the map accuracy table, or "" when metrics.json has no map accuracy.
+std::string map_row(const std::string& scene, const std::string& metrics_path) {
+  if (!file_exists(metrics_path)) return "";
+  std::ifstream in(metrics_path);
+  std::stringstream buf;
+  buf << in.rdbuf();
+  const std::string text = buf.str();
+  if (text.find("\"sa\": ") == std::string::npos) return "";
+  auto count = [&](const char* key) {
+    const double v = json_value(text, key);
+    return std::isnan(v) ? std::string("n/a") : fmt(v, 0);
+  };
+  return "| " + scene + " | " + fmt(json_value(text, "sa"), 4) + " | " +
+         fmt(json_value(text, "sa_strict"), 4) + " | " + fmt(json_value(text, "da"), 4) + " | " +
+         fmt(json_value(text, "aa"), 4) + " | " + count("erased_max") + " | " +
+         count("free_through_max") + " |\n";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -66,7 +100,8 @@ int main(int argc, char** argv) {
   }
   try {
     const std::string root = argv[1];
-    std::ostringstream t1, t3;
+    std::ostringstream t1, t3, t4;
+    bool any_map = false;
     std::vector<std::string> stage_names;
     std::vector<std::vector<double>> stage_us;
     t1 << "### Table I: tracking accuracy per scene (dynamic obstacles, docs/data_format.md "
@@ -77,6 +112,10 @@ int main(int argc, char** argv) {
     t3 << "### Prediction failure ratio (chosen path collides with the true static world, or no "
           "path is free)\n\n| scene | predictions | Markov | linear baseline | Markov / linear |\n"
           "|---|---|---|---|---|\n";
+    t4 << "### Map accuracy (final map vs the true static world and the walkers, "
+          "docs/evaluation.md \"Map accuracy\")\n\n"
+       << "| scene | SA | SA strict | DA | AA | erased obstacle voxels, max (<= 3 m) | free "
+          "through obstacle voxels, max (<= 3 m) |\n|---|---|---|---|---|---|---|\n";
     for (int i = 2; i < argc; ++i) {
       const std::string scene = argv[i];
       const std::string seq = join_path(root, scene);
@@ -96,6 +135,9 @@ int main(int argc, char** argv) {
            << fmt(ratio, 2) << " |\n";
       }
       read_timing(join_path(out, "timing.csv"), stage_names, stage_us);
+      const std::string row = map_row(scene, join_path(out, "metrics.json"));
+      any_map = any_map || !row.empty();
+      t4 << row;
     }
     std::ostringstream t2;
     t2 << "### Table II: runtime per module (this machine, one core, as timed by the replay; all "
@@ -110,7 +152,8 @@ int main(int argc, char** argv) {
          << fmt(percentile(stage_us[k], 0.99) * 1e-3, 3) << " | "
          << (total ? std::string("") : fmt(100.0 * med / sum, 0) + " %") << " |\n";
     }
-    const std::string text = t1.str() + "\n" + t2.str() + "\n" + t3.str();
+    const std::string text =
+        t1.str() + "\n" + t2.str() + "\n" + t3.str() + (any_map ? "\n" + t4.str() : "");
     std::printf("%s", text.c_str());
     std::ofstream f(join_path(root, "tables.md"));
     f << text;

@@ -5,7 +5,7 @@
 // status 3), unless --strict asks to stop at the first one.
 //
 //   dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N] [--picture-every N] [--quiet]
-//                  [--strict] [--poses tum|bonn] [--cpu-clock]
+//                  [--strict] [--poses tum|bonn] [--cpu-clock] [--no-map-checks]
 //   dynamap-replay --help-params | --params-markdown
 #include <algorithm>
 #include <cmath>
@@ -30,6 +30,7 @@
 #include "common/topview.hpp"
 #include "dynamap/pipeline.hpp"
 #include "dynamap/platform/clock.hpp"
+#include "map_output.hpp"
 #include "params.hpp"
 #include "platform_clock_tools.hpp"
 
@@ -47,6 +48,7 @@ struct Options {
   bool quiet = false;
   bool cpu_clock = false;
   bool strict = false;
+  bool map_checks = true;  // map_frames.csv when the sequence has static_world.txt
   PoseConvention poses = PoseConvention::kTum;
 };
 
@@ -60,12 +62,15 @@ std::uint64_t thread_cpu_clock() {
 void usage(std::ostream& os) {
   os << "usage: dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N]\n"
         "                      [--picture-every N] [--quiet] [--strict] [--poses tum|bonn]\n"
-        "                      [--cpu-clock]\n"
+        "                      [--cpu-clock] [--no-map-checks]\n"
         "       dynamap-replay --help-params | --params-markdown\n"
         "Runs the dynamap pipeline over SEQ (TUM RGB-D layout, see docs/data_format.md) and\n"
         "writes DIR/tracks.csv, DIR/detections.csv, DIR/predictions.csv,\n"
-        "DIR/predictions_linear.csv, DIR/timing.csv, DIR/topview.png (final state) and, with\n"
+        "DIR/predictions_linear.csv, DIR/timing.csv, DIR/topview.png (final state),\n"
+        "DIR/map.ply and DIR/map_summary.txt (the final map), DIR/map_frames.csv (per-frame\n"
+        "checks of the map against SEQ/static_world.txt, when present) and, with\n"
         "--picture-every N, DIR/frames/frame_NNNNN.png.\n"
+        "--no-map-checks: no map_frames.csv (the other outputs are the same either way).\n"
         "--params FILE: YAML with PipelineConfig keys (e.g. 'map: {resolution: 0.1}').\n"
         "--help-params: every key with its value, tier, valid range and meaning\n"
         "  (docs/parameters.md); --params-markdown prints that page's tables.\n"
@@ -134,6 +139,8 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
       o.cpu_clock = true;
     } else if (a == "--strict") {
       o.strict = true;
+    } else if (a == "--no-map-checks") {
+      o.map_checks = false;
     } else if (a == "--poses") {
       const char* v = value("--poses");
       if (v == nullptr) return false;
@@ -316,6 +323,10 @@ int run(const Options& o) {
   for (std::size_t k = 0; k < kStageCount; ++k) timing << "," << to_string(static_cast<Stage>(k));
   timing << ",total\n";
 
+  std::unique_ptr<MapFrameLog> map_log;
+  if (world != nullptr && o.map_checks)
+    map_log = std::make_unique<MapFrameLog>(*world, pipeline->map(), o.out);
+
   auto out = std::make_unique<FrameOutput>();
   PictureState ps;
   const std::size_t n = o.max_frames >= 0
@@ -394,6 +405,8 @@ int run(const Options& o) {
     for (std::size_t k = 0; k < kStageCount; ++k)
       timing << "," << 1e-3 * static_cast<double>(out->stage_ns[k]);
     timing << "," << 1e-3 * static_cast<double>(out->total_ns) << "\n";
+    if (map_log != nullptr)
+      map_log->record(pipeline->map(), sf.stamp_text, frame.T_map_camera.translation);
 
     if (o.picture_every > 0 && i % static_cast<std::size_t>(o.picture_every) == 0) {
       char name[64];
@@ -423,6 +436,9 @@ int run(const Options& o) {
                               std::to_string(n) + " frames, " + std::to_string(dynamic_ids.size()) +
                                   " dynamic tracks"),
                   join_path(o.out, "topview.png"));
+
+  const FinalMapCounts map_counts =
+      write_final_map(pipeline->map(), config, last_pose, process_ms.size(), o.out);
 
   const PipelineCounters& c = pipeline->counters();
   std::printf("dynamap-replay %s -> %s\n", o.seq.c_str(), o.out.c_str());
@@ -476,6 +492,12 @@ int run(const Options& o) {
       "  wrote tracks.csv, detections.csv, predictions.csv, predictions_linear.csv, timing.csv, "
       "topview.png%s\n",
       pictures > 0 ? (", " + std::to_string(pictures) + " pictures in frames/").c_str() : "");
+  std::printf(
+      "  final map: %zu occupied voxels (map.ply, map_summary.txt); local region: %zu occupied, "
+      "%zu free, %zu unknown; written in %.1f ms\n",
+      map_counts.occupied, map_counts.region_occupied, map_counts.region_free,
+      map_counts.region_unknown, 1e3 * map_counts.seconds);
+  if (map_log != nullptr) std::printf("  %s (map_frames.csv)\n", map_log->summary().c_str());
   return skipped.total() > 0 ? kExitCompletedWithGaps : 0;
 }
 
