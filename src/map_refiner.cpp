@@ -31,6 +31,7 @@ Status MapRefiner::init(const MapRefinerConfig& config, float ground_height) noe
       config.floor_margin < 0.f) {
     return Status::kInvalidArgument;
   }
+  if (config.static_frames > kMaxStaticFrames) return Status::kInvalidArgument;
   if (config.max_voxels_per_box < 1 || config.max_voxels_per_box > kMaxRefinerVoxelsPerBox ||
       config.min_support_voxels < 1) {
     return Status::kInvalidArgument;
@@ -79,6 +80,10 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   Eigen::Vector3f hi = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
   std::size_t support = 0;
+  std::size_t in_raw = 0, old_in_raw = 0;  // map voxels in the raw box, and long-occupied ones
+  Box3 raw = d.raw_box;
+  raw.min.array() -= half;
+  raw.max.array() += half;
   const auto add = [&](const Eigen::Vector3f& c) noexcept {
     if (c.z() < floor_top) return;  // centre below the floor band (belt and braces)
     lo = lo.cwiseMin(c);
@@ -103,7 +108,12 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
 
     // Pass 1: occupied voxels, block-wise through the map (skips unallocated blocks).
     map.for_each_occupied_in_box(search, config_.max_voxels_per_box,
-                                 [&](OccupancyMap::VoxelKey, const Eigen::Vector3f& c) { add(c); });
+                                 [&](OccupancyMap::VoxelKey, const Eigen::Vector3f& c) {
+                                   add(c);
+                                   if (c.z() < floor_top || !raw.contains(c)) return;
+                                   ++in_raw;
+                                   old_in_raw += map.occupied_frames(c) >= config_.static_frames;
+                                 });
 
     // Pass 2: voxels in the clean history count as occupied (they were freed on purpose).
     if (!clean.empty() && n_total > 0) {
@@ -122,6 +132,7 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
   }
 
   stats_.support_voxels += support;
+  d.static_share = in_raw > 0 ? static_cast<float>(old_in_raw) / static_cast<float>(in_raw) : 0.f;
   Box3 refined{lo - Eigen::Vector3f::Constant(half), hi + Eigen::Vector3f::Constant(half)};
   if (config_.tighten_only && support > 0) {
     refined.min = refined.min.cwiseMax(d.raw_box.min);

@@ -133,6 +133,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(refiner.max_voxels_per_box), C, "", 1, kMaxRefinerVoxelsPerBox, kClosed, kClosed, "work cap: voxels examined per box and pass"},
     {DYNAMAP_FIELD(refiner.min_support_voxels), X, "", 1, kInf, kClosed, kOpen, "fewer occupied voxels keep the raw box"},
     {DYNAMAP_FIELD(refiner.tighten_only), X, "", 0, 1, kClosed, kClosed, "the map only cuts the raw box (false: voxel bounds, original)"},
+    {DYNAMAP_FIELD(refiner.static_frames), X, "frames", 0, kMaxStaticFrames, kClosed, kClosed, "a voxel occupied this long counts as long-seen for Detection::static_share"},
     // Tracker: Kalman filter.
     {DYNAMAP_FIELD(tracker.kalman.p0_position), X, "m^2", 0, kInf, kOpen, kOpen, "initial position variance"},
     {DYNAMAP_FIELD(tracker.kalman.p0_velocity), X, "(m/s)^2", 0, kInf, kOpen, kOpen, "initial velocity variance"},
@@ -183,6 +184,7 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(tracker.compensate_cut_footprint), X, "", 0, 1, kClosed, kClosed, "keep the growing footprint of a border-cut detection from reading as motion"},
     {DYNAMAP_FIELD(tracker.ever_free_frames), X, "frames", 0, kMaxVoteWindow, kClosed, kClosed, "detections in ever-free space in a row that label a track dynamic (0: off)"},
     {DYNAMAP_FIELD(tracker.ever_free_share), X, "", 0, 1, kOpen, kClosed, "share of a detection's surface cells that must be ever free"},
+    {DYNAMAP_FIELD(tracker.max_static_share), X, "", 0, 1, kClosed, kClosed, "detections with more of their voxels long occupied vote static (1: off)"},
     // Fragment joining (detection_refiner.hpp).
     {DYNAMAP_FIELD(fragments.join_fragments), X, "", 0, 1, kClosed, kClosed, "join the detector's fragments of one obstacle"},
     {DYNAMAP_FIELD(fragments.max_gap), X, "m", -kInf, 1, kOpen, kClosed, "largest top-view gap between joined boxes (negative: must overlap)"},

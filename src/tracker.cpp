@@ -38,6 +38,9 @@ Status validate_detection(const Detection& d) noexcept {
 
 Status TrackerConfig::validate() const noexcept {
   if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
+  if (!std::isfinite(max_static_share) || max_static_share < 0.f || max_static_share > 1.f) {
+    return Status::kInvalidArgument;
+  }
   const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
                     overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
                     std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
@@ -150,6 +153,7 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.voter.reset();
   t.dynamic_streak = 0;
   t.ever_free_streak = 0;
+  t.on_static = false;
   t.every_vote_dynamic = true;
   t.was_dynamic = false;
   t.dynamic_frames = 0;
@@ -216,6 +220,7 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   ++t.out.hits;
   t.out.last_seen = stamp;
   count_ever_free(t, det);
+  t.on_static = det.static_share > config_.max_static_share;
   vote(t);
 }
 
@@ -283,7 +288,7 @@ void Tracker::vote(Track& t) noexcept {
   t.out.continuity = c_con;
   const float speed = t.kf.velocity().norm();
   const ContinuityFilter filter(config_.continuity);
-  const bool dynamic_vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t);
+  const bool dynamic_vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t) && !t.on_static;
   t.voter.push(dynamic_vote, config_.continuity);
   t.dynamic_streak = dynamic_vote ? t.dynamic_streak + 1 : 0;
   if (!dynamic_vote) t.every_vote_dynamic = false;
@@ -408,6 +413,7 @@ void Tracker::coast_unmatched() noexcept {
     // An early label needs an unbroken run of votes: a gap withdraws it.
     t.dynamic_streak = 0;
     t.ever_free_streak = 0;
+    t.on_static = false;
     if (t.voter.votes() > 0) t.every_vote_dynamic = false;
     t.label = t.voter.dynamic();
     if (t.out.missed_frames > config_.max_missed_frames) {

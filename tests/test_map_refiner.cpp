@@ -114,6 +114,29 @@ TEST_F(MapRefinerTest, HonoursCleanHistory) {
   EXPECT_LT(d.box.max.y(), 0.31f);
 }
 
+TEST_F(MapRefinerTest, StaticShareIsTheShareOfLongOccupiedVoxelsInTheRawBox) {
+  // The obstacle's voxels became occupied at map frame 0; a second obstacle's at frame 40.
+  // At frame 45 (static_frames 30) the first is all old, the second all young.
+  std::vector<std::uint16_t> zeros(64, 0);
+  CameraIntrinsics cam;
+  cam.width = cam.height = 8;
+  cam.fx = cam.fy = 5.f;
+  cam.cx = cam.cy = 3.5f;
+  cam.depth_scale = 0.001f;
+  const DepthView none{zeros.data(), 8, 8, 16};  // a frame with no measurement: the clock ticks
+  Pose pose;
+  for (int f = 1; f <= 45; ++f) {
+    if (f == 40) fill(*map, Eigen::Vector3f(2.0f, 1.0f, 0.3f), Eigen::Vector3f(2.4f, 1.4f, 1.5f));
+    ASSERT_EQ(map->integrate(none, cam, pose, static_cast<Stamp>(f) * 33'333'333), Status::kOk);
+  }
+  Detection dets[2] = {noisy_detection(), noisy_detection()};
+  dets[1].raw_box =
+      Box3{Eigen::Vector3f(1.95f, 0.95f, 0.25f), Eigen::Vector3f(2.45f, 1.45f, 1.55f)};
+  ASSERT_EQ(refiner.refine(*map, VoxelLookup{}, dets, 2), Status::kOk);
+  EXPECT_FLOAT_EQ(dets[0].static_share, 1.f);
+  EXPECT_FLOAT_EQ(dets[1].static_share, 0.f);
+}
+
 TEST_F(MapRefinerTest, NoSupportKeepsRawBoxUnrefined) {
   FixedVector<Detection, kMaxDetections> dets;
   Detection empty_space;

@@ -303,8 +303,8 @@ TEST(OccupancyMap, EachVoxelUpdatedAtMostOncePerFrameAndHitWins) {
               (Vec3(static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)) +
                Vec3::Constant(0.5f)) *
               0.1f;
-          if (map->state(c) == Occupancy::kUnknown) continue;
           const float l = map->log_odds(c);
+          if (l == 0.f) continue;  // never updated
           if (std::fabs(l - kHitLogOdds) < kQuantum) {
             ++hits;
           } else {

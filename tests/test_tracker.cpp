@@ -293,6 +293,27 @@ TEST(TrackerLabels, NoisyWalkerIsDynamicWithinOneSecond) {
   }
 }
 
+TEST(TrackerLabels, ADetectionOnLongOccupiedVoxelsVotesStatic) {
+  // The same clean 1 m/s motion: on voxels the map has long held (static_share above the
+  // limit, a moving camera sliding its view along a static box) it is never dynamic; on fresh
+  // voxels (a body that just arrived) it is, and with the rule off it is too.
+  for (float share : {0.9f, 0.2f}) {
+    for (float limit : {0.5f, 1.0f}) {
+      TrackerConfig cfg;
+      cfg.max_static_share = limit;
+      auto tracker = make_tracker(cfg);
+      bool ever_dynamic = false;
+      for (int f = 0; f < 60; ++f) {
+        Detection d = detection(Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f));
+        d.static_share = share;
+        ASSERT_EQ(tracker->update(&d, 1, camera_at(), kFrame * (f + 1)), Status::kOk);
+        ever_dynamic = ever_dynamic || tracker->obstacle(0).dynamic;
+      }
+      EXPECT_EQ(ever_dynamic, !(share > limit)) << share << " " << limit;
+    }
+  }
+}
+
 TEST(TrackerLabels, StaticTargetWithSameNoiseIsNeverDynamicOver30Seconds) {
   for (unsigned seed = 1; seed <= 3; ++seed) {
     auto tracker = make_tracker();

@@ -15,6 +15,11 @@ struct Detection {
   /// Share of this frame's surface cells in the raw box that the camera had observed free for a
   /// while (EverFreeGrid; 0 when not computed): the obstacle moved into empty space.
   float ever_free = 0.f;
+  /// Share of the occupied voxels in the raw box that the map had held occupied for at least
+  /// MapRefinerConfig::static_frames (MapRefiner; 0 when not computed): a surface seen for a
+  /// long time, not a body that just arrived. A moving camera sliding its view along a static
+  /// box makes the detection move; its voxels stay old.
+  float static_share = 0.f;
 };
 
 }  // namespace dynamap

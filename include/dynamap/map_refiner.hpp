@@ -30,6 +30,9 @@ struct VoxelLookup {
 inline constexpr std::size_t kMaxRefinerVoxelsPerBox = std::size_t{1} << 20;
 
 /// Parameters of the refinement (defaults from the original system).
+/// Upper bound of MapRefinerConfig::static_frames (the map reads ages up to 2^14 ticks).
+inline constexpr std::size_t kMaxStaticFrames = 100000;
+
 struct MapRefinerConfig {
   float inflate = 1.15f;      ///< C_inflate: raw box extents are multiplied by this
   float floor_margin = 0.2f;  ///< voxels whose centre is below ground + margin are ignored
@@ -39,6 +42,9 @@ struct MapRefinerConfig {
   /// what is not there but never adds its 10 cm quantisation to a box that averages thousands
   /// of pixels); false: the support's voxel bounds alone (original method).
   bool tighten_only = true;
+  /// Detection::static_share counts voxels occupied without a break for at least this many
+  /// frames (1 s): longer than a walking body stays on a voxel.
+  std::size_t static_frames = 30;
 };
 
 /// Counters of the last refine() call.

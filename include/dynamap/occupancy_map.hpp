@@ -50,7 +50,8 @@ inline constexpr int kNoReturnCellsX =
 inline constexpr int kNoReturnCellsY =
     (kMaxImageHeight + kNoReturnCellPixels - 1) / kNoReturnCellPixels;
 
-/// What the map knows about a voxel: never observed, free, or occupied.
+/// What the map knows about a voxel: free (p < 0.5), occupied (p > prob_occupied), or unknown
+/// (never observed, or the evidence undecided in between).
 enum class Occupancy : std::uint8_t { kUnknown = 0, kFree, kOccupied };
 
 /// Parameters of OccupancyMap; probabilities, depths and sampling are the paper's (docs/design.md
@@ -339,7 +340,10 @@ class OccupancyMap {
   const Voxel* find_voxel(const IndexVec& idx) const noexcept;
   Occupancy classify(std::int16_t q) const noexcept {
     if (q == kUnknown) return Occupancy::kUnknown;
-    return q > q_occupied_ ? Occupancy::kOccupied : Occupancy::kFree;
+    if (q > q_occupied_) return Occupancy::kOccupied;
+    // Free needs the evidence to say more likely empty than not (p < 0.5, as OctoMap's
+    // threshold); between 0.5 and prob_occupied it is undecided, which is not free.
+    return q < 0 ? Occupancy::kFree : Occupancy::kUnknown;
   }
   Eigen::Vector3f center_of(const IndexVec& idx) const noexcept {
     return {(static_cast<float>(idx[0]) + 0.5f) * resolution_,

@@ -124,6 +124,10 @@ struct TrackerConfig {
   /// the label falls back to the votes (docs/tracker.md, "Static or dynamic").
   std::size_t ever_free_frames = 3;
   float ever_free_share = 0.5f;  ///< share of the detection's surface cells (0, 1]
+  /// A detection most of whose voxels the map has held occupied for a long time
+  /// (Detection::static_share above this) lies on static structure: its apparent motion is the
+  /// camera's view sliding along it, and it votes static (1: off; docs/tracker.md).
+  float max_static_share = 0.5f;
 
   /// kInvalidArgument for out-of-range values (nested configs included).
   Status validate() const noexcept;
@@ -203,6 +207,7 @@ class Tracker {
     std::size_t in_view_frames = 0;
     std::size_t dynamic_streak = 0;    // consecutive dynamic votes on consecutive frames
     std::size_t ever_free_streak = 0;  // measured frames in a row in ever-free space
+    bool on_static = false;            // last detection lay on long-occupied voxels
     bool every_vote_dynamic = true;    // no static vote and no missed frame since the first vote
     bool was_dynamic = false;          // labelled dynamic at some time
     std::size_t dynamic_frames = 0;    // measured frames labelled dynamic (saturates)
