@@ -1,6 +1,6 @@
 // Map accuracy (docs/evaluation.md, "Map accuracy"): the PLY map file, the truth voxels of a
 // static world, dynamap-eval --map's scoring on a hand-made world and dynamap-replay's per-frame
-// erased / free-through counting on a hand-made map.
+// erased / free-through counting and its --static-model hole counting on hand-made maps.
 #include <gtest/gtest.h>
 
 #include <stdlib.h>
@@ -261,6 +261,42 @@ TEST(MapFrameChecks, OccupiedThenFreeBoxVoxelIsErasedAndFreeThrough) {
   n = checker.check(*map, camera, 3.f);
   EXPECT_EQ(n.erased_all, 0u);
   EXPECT_EQ(n.free_through_all, 1u);
+}
+
+// dynamap-replay --static-model on a hand-made map: the model's voxels (a PLY as dynamap-label
+// --static-model writes it) counted by the map's state at their centres. Camera (0, 0, 1),
+// region +- (5, 5, 3), 3 m range.
+TEST(MapModelHoles, HeldFreeModelVoxelsAreCountedExactly) {
+  TempDir dir;
+  auto map = std::make_unique<OccupancyMap>();
+  ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
+  const Eigen::Vector3f a(1.05f, 0.05f, 1.05f), b(1.15f, 0.05f, 1.05f), c(1.25f, 0.05f, 1.05f);
+  const Eigen::Vector3f d(4.05f, 4.05f, 1.05f), e(6.05f, 0.05f, 1.05f);
+  ASSERT_EQ(map->set_log_odds(a, -2.0f), Status::kOk);  // held free: a hole
+  ASSERT_EQ(map->set_log_odds(b, 2.0f), Status::kOk);   // occupied; c never set: unknown
+  ASSERT_EQ(map->set_log_odds(d, -2.0f), Status::kOk);  // a hole 5.7 m away
+  ASSERT_EQ(map->set_log_odds(e, -2.0f), Status::kOk);  // free, outside the region
+  std::vector<MapVoxel> model;
+  for (const Eigen::Vector3f& p : {a, b, c, d, e}) model.push_back(MapVoxel{p, 0.8f});
+  model.push_back(MapVoxel{Eigen::Vector3f(1.06f, 0.04f, 1.04f), 0.9f});  // a's voxel again
+  model.push_back(MapVoxel{Eigen::Vector3f(2.0f, 0.05f, 1.05f), 0.7f});   // on a voxel face
+  write_map_ply(dir / "static_model.ply", model, "test model");
+  const std::vector<MapVoxel> read = read_map_ply(dir / "static_model.ply");
+  ASSERT_EQ(read.size(), model.size());
+  const ModelHoleCounts n = count_model_holes(*map, read, Eigen::Vector3f(0.f, 0.f, 1.f),
+                                              Eigen::Vector3f(5.f, 5.f, 3.f), 3.f);
+  EXPECT_EQ(n.region.voxels, 5u);  // a, b, c, d and the face voxel (unknown)
+  EXPECT_EQ(n.region.free, 2u);
+  EXPECT_EQ(n.region.occupied, 1u);
+  EXPECT_EQ(n.region.unknown, 2u);
+  EXPECT_NEAR(n.region.free_percent(), 40.0, 1e-9);
+  EXPECT_EQ(n.depth.voxels, 4u);  // d is beyond 3 m
+  EXPECT_EQ(n.depth.free, 1u);
+  EXPECT_EQ(n.depth.occupied, 1u);
+  EXPECT_EQ(n.misaligned, 1u);
+  ASSERT_EQ(n.holes.size(), 2u);
+  EXPECT_LT((n.holes[0] - a).norm(), 1e-4f);
+  EXPECT_LT((n.holes[1] - d).norm(), 1e-4f);
 }
 
 // The whole --map evaluation on a hand-made two-frame sequence: an 8 x 6 camera at (0, 0, 1)

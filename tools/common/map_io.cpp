@@ -4,8 +4,10 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <unordered_set>
 
 #include "common/text_io.hpp"
+#include "dynamap/occupancy_map.hpp"
 
 namespace dynamap::tools {
 namespace {
@@ -111,11 +113,12 @@ void check_voxel(const MapVoxel& m, const std::string& where) {
 
 }  // namespace
 
-void write_map_ply(const std::string& path, const std::vector<MapVoxel>& voxels) {
+void write_map_ply(const std::string& path, const std::vector<MapVoxel>& voxels,
+                   const std::string& comment) {
   std::ofstream out(path, std::ios::binary);
   if (!out) throw ToolError(path + ": cannot create file");
   out << "ply\nformat binary_little_endian 1.0\n"
-      << "comment dynamap occupied voxel centres (world frame, m) and occupancy probability\n"
+      << "comment " << comment << "\n"
       << "element vertex " << voxels.size() << "\n"
       << "property float x\nproperty float y\nproperty float z\nproperty float probability\n"
       << "end_header\n";
@@ -164,6 +167,32 @@ std::vector<MapVoxel> read_map_ply(const std::string& path) {
     throw ToolError(path + ": file ends after " + std::to_string(voxels.size()) + " of " +
                     std::to_string(h.vertices) + " vertices");
   return voxels;
+}
+
+ModelHoleCounts count_model_holes(const OccupancyMap& map, const std::vector<MapVoxel>& model,
+                                  const Eigen::Vector3f& camera, const Eigen::Vector3f& half_extent,
+                                  float max_depth) {
+  ModelHoleCounts n;
+  std::unordered_set<OccupancyMap::VoxelKey> seen;
+  const float tolerance = 0.25f * map.resolution();
+  for (const MapVoxel& m : model) {
+    if (((m.centre - camera).array().abs() > half_extent.array()).any()) continue;
+    const OccupancyMap::VoxelKey key = map.key_of(m.centre);
+    if (!seen.insert(key).second) continue;  // a finer model: each map voxel once
+    const Eigen::Vector3f c = map.center_of(key);
+    if (((c - m.centre).array().abs() > tolerance).any()) ++n.misaligned;
+    const Occupancy s = map.state(key);
+    const bool near = (c - camera).norm() <= max_depth;
+    for (ModelHoleCounts::States* t : {&n.region, near ? &n.depth : nullptr}) {
+      if (t == nullptr) continue;
+      ++t->voxels;
+      t->occupied += s == Occupancy::kOccupied ? 1 : 0;
+      t->free += s == Occupancy::kFree ? 1 : 0;
+      t->unknown += s == Occupancy::kUnknown ? 1 : 0;
+    }
+    if (s == Occupancy::kFree) n.holes.push_back(c);
+  }
+  return n;
 }
 
 double MapSummary::number(const std::string& key, double fallback) const {

@@ -111,6 +111,9 @@ class VoxelGrid {
     }
   }
 
+  Eigen::Vector3d centre(int i, int j, int k) const {
+    return origin_ + res_ * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
+  }
   std::uint16_t hits(std::size_t id) const { return hits_[id]; }
   std::uint16_t passes(std::size_t id) const { return passes_[id]; }
 
@@ -343,6 +346,26 @@ void write_overlay(const std::string& path, const Image16& depth, const CameraMo
   if (st != CAIRO_STATUS_SUCCESS) throw ToolError(path + ": cannot write overlay PNG");
 }
 
+// The model's static voxels (state 2) as centres with their hit ratio.
+std::vector<MapVoxel> static_voxels(const VoxelGrid& grid, const std::vector<std::uint8_t>& state) {
+  std::vector<MapVoxel> out;
+  const int* n = grid.dims();
+  for (int k = 0; k < n[2]; ++k) {
+    for (int j = 0; j < n[1]; ++j) {
+      for (int i = 0; i < n[0]; ++i) {
+        const std::size_t id = grid.index(i, j, k);
+        if (state[id] != 2) continue;
+        const double h = grid.hits(id), obs = h + grid.passes(id);
+        MapVoxel m;
+        m.centre = grid.centre(i, j, k).cast<float>();
+        m.probability = static_cast<float>(h / obs);
+        out.push_back(m);
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string describe(const LabelOptions& o) {
@@ -484,6 +507,7 @@ LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) 
       state[id] = 2;
     }
   }
+  if (opt.keep_static_model) result.static_model = static_voxels(grid, state);
   std::vector<std::uint8_t> dynamic_ok(grid.size(), 0);
   for (int k = 0; k < n[2]; ++k) {
     for (int j = 0; j < n[1]; ++j) {
@@ -786,6 +810,11 @@ void write_labels(const std::string& out_dir, const LabelResult& result,
   csv.flush();
   if (!obs) throw ToolError(obs_path + ": write error");
   if (!csv) throw ToolError(csv_path + ": write error");
+  if (options.keep_static_model) {
+    write_map_ply(join_path(out_dir, "static_model.ply"), result.static_model,
+                  "dynamap-label static model: centres of the static voxels (world frame, m); "
+                  "probability = hit ratio (frames occupied / frames seen)");
+  }
 }
 
 }  // namespace dynamap::tools::label

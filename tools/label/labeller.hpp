@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "common/map_io.hpp"
 #include "common/obstacles.hpp"
 
 namespace dynamap::tools::label {
@@ -59,6 +60,9 @@ struct LabelOptions {
   /// (grey), the points held free by the model (red) and the labelled boxes (green, with ids).
   std::string overlay_dir;
   int overlay_every = 0;
+  /// Keep the pass 1 model's static voxels in LabelResult::static_model and have write_labels()
+  /// write them to static_model.ply. Changes no label.
+  bool keep_static_model = false;
   /// Progress lines (stderr in the tool); may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -80,6 +84,10 @@ struct LabelSummary {
 struct LabelResult {
   std::vector<ObstacleRecord> rows;  ///< sorted by frame, then id
   LabelSummary summary;
+  /// With keep_static_model: the centre (world frame) of every static voxel of the pass 1 model
+  /// (seen in >= min_observations frames, occupied in >= static_ratio of them); probability =
+  /// its hit ratio (hits / observations).
+  std::vector<MapVoxel> static_model;
 };
 
 /// Labels the sequence in seq_dir. Throws ToolError for an unreadable sequence (depth.txt,
@@ -87,7 +95,8 @@ struct LabelResult {
 LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& options = {});
 
 /// Writes out_dir/obstacles.txt (with a header saying how the labels were made) and
-/// out_dir/tracks.csv (the same rows, dynamic = 1, path = -1). Creates out_dir.
+/// out_dir/tracks.csv (the same rows, dynamic = 1, path = -1), and with keep_static_model
+/// out_dir/static_model.ply (LabelResult::static_model, the map.ply layout). Creates out_dir.
 void write_labels(const std::string& out_dir, const LabelResult& result,
                   const LabelOptions& options);
 

@@ -1,6 +1,6 @@
-// dynamap-label SEQ --out DIR [--first-frame N] [--max-frames N] [--quiet] [--overlays DIR
-// [--overlay-every N]] Offline reference labels of moving people from the depth data
-// (docs/reference_labels.md).
+// dynamap-label SEQ --out DIR [--first-frame N] [--max-frames N] [--quiet] [--static-model]
+// [--overlays DIR [--overlay-every N]] Offline reference labels of moving people from the depth
+// data (docs/reference_labels.md).
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -16,7 +16,7 @@ namespace {
 void usage(std::FILE* to) {
   std::fprintf(to,
                "usage: dynamap-label SEQ --out DIR [--first-frame N] [--max-frames N] [--quiet]\n"
-               "                     [--overlays DIR [--overlay-every N]]\n"
+               "                     [--static-model] [--overlays DIR [--overlay-every N]]\n"
                "  Offline, non-causal reference labels of moving people in the depth sequence\n"
                "  SEQ (TUM layout, world z up, floor at z = 0): writes DIR/obstacles.txt and\n"
                "  DIR/tracks.csv (dynamic = 1, path = -1; for dynamap-eval SEQ DIR).\n"
@@ -25,6 +25,9 @@ void usage(std::FILE* to) {
                "  --overlays DIR: every N-th frame (default 30) a PNG for checking by eye:\n"
                "  depth, points held free by the static model (red), labelled boxes (green;\n"
                "  blue when interpolated).\n"
+               "  --static-model: also DIR/static_model.ply, the centres of the static voxels\n"
+               "  of the labeller's all-frames model (probability = hit ratio), for\n"
+               "  dynamap-replay --static-model. The labels are the same either way.\n"
                "  See docs/reference_labels.md.\n");
 }
 
@@ -64,6 +67,8 @@ int main(int argc, char** argv) {
         const long long n = parse_int(v, TextLocation{"--overlay-every", 0}, "frame step");
         if (n <= 0) throw ToolError("--overlay-every must be > 0, got " + v);
         opt.overlay_every = static_cast<int>(n);
+      } else if (a == "--static-model") {
+        opt.keep_static_model = true;
       } else if (a == "--quiet") {
         quiet = true;
       } else if (!a.empty() && a[0] == '-') {

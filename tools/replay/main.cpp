@@ -48,7 +48,8 @@ struct Options {
   bool quiet = false;
   bool cpu_clock = false;
   bool strict = false;
-  bool map_checks = true;  // map_frames.csv when the sequence has static_world.txt
+  bool map_checks = true;    // map_frames.csv when the sequence has static_world.txt
+  std::string static_model;  // --static-model FILE: holes of the final map against it
   PoseConvention poses = PoseConvention::kTum;
 };
 
@@ -62,7 +63,7 @@ std::uint64_t thread_cpu_clock() {
 void usage(std::ostream& os) {
   os << "usage: dynamap-replay SEQ --out DIR [--params FILE] [--max-frames N]\n"
         "                      [--picture-every N] [--quiet] [--strict] [--poses tum|bonn]\n"
-        "                      [--cpu-clock] [--no-map-checks]\n"
+        "                      [--cpu-clock] [--no-map-checks] [--static-model FILE]\n"
         "       dynamap-replay --help-params | --params-markdown\n"
         "Runs the dynamap pipeline over SEQ (TUM RGB-D layout, see docs/data_format.md) and\n"
         "writes DIR/tracks.csv, DIR/detections.csv, DIR/predictions.csv,\n"
@@ -71,6 +72,9 @@ void usage(std::ostream& os) {
         "checks of the map against SEQ/static_world.txt, when present) and, with\n"
         "--picture-every N, DIR/frames/frame_NNNNN.png.\n"
         "--no-map-checks: no map_frames.csv (the other outputs are the same either way).\n"
+        "--static-model FILE: a PLY of static surface voxel centres (dynamap-label\n"
+        "  --static-model): counts the final map's holes (model voxels in the local region\n"
+        "  held free) into map_summary.txt, writes them to DIR/model_holes.ply.\n"
         "--params FILE: YAML with PipelineConfig keys (e.g. 'map: {resolution: 0.1}').\n"
         "--help-params: every key with its value, tier, valid range and meaning\n"
         "  (docs/parameters.md); --params-markdown prints that page's tables.\n"
@@ -141,6 +145,10 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
       o.strict = true;
     } else if (a == "--no-map-checks") {
       o.map_checks = false;
+    } else if (a == "--static-model") {
+      const char* v = value("--static-model");
+      if (v == nullptr) return false;
+      o.static_model = v;
     } else if (a == "--poses") {
       const char* v = value("--poses");
       if (v == nullptr) return false;
@@ -283,6 +291,19 @@ void write_detection_rows(std::ostream& out, const std::string& stamp_text,
   }
 }
 
+// The final map against --static-model (docs/evaluation.md, "Map accuracy").
+void print_model_holes(const ModelHoleCounts& h, float max_depth) {
+  std::printf(
+      "  map holes vs static model: %zu of %zu model voxels in range held free (%.2f %%); "
+      "%zu occupied, %zu unknown; within %.1f m of the camera: %zu of %zu (%.2f %%)%s "
+      "(model_holes.ply)\n",
+      h.region.free, h.region.voxels, h.region.free_percent(), h.region.occupied, h.region.unknown,
+      static_cast<double>(max_depth), h.depth.free, h.depth.voxels, h.depth.free_percent(),
+      h.misaligned > 0
+          ? ("; " + std::to_string(h.misaligned) + " model voxels off the grid").c_str()
+          : "");
+}
+
 int run(const Options& o) {
   SequenceReadOptions read_options;
   read_options.poses = o.poses;
@@ -307,6 +328,8 @@ int run(const Options& o) {
   const std::string truth_path = join_path(o.seq, "obstacles.txt");
   if (file_exists(truth_path)) truth = read_obstacles(truth_path);
 
+  std::vector<MapVoxel> model;  // read before the replay: a bad file fails at once
+  if (!o.static_model.empty()) model = read_map_ply(o.static_model);
   make_directories(o.out, "cannot create the output directory");
   if (o.picture_every > 0)
     make_directories(join_path(o.out, "frames"), "cannot create the output directory");
@@ -438,7 +461,8 @@ int run(const Options& o) {
                   join_path(o.out, "topview.png"));
 
   const FinalMapCounts map_counts =
-      write_final_map(pipeline->map(), config, last_pose, process_ms.size(), o.out);
+      write_final_map(pipeline->map(), config, last_pose, process_ms.size(), o.out,
+                      o.static_model.empty() ? nullptr : &model);
 
   const PipelineCounters& c = pipeline->counters();
   std::printf("dynamap-replay %s -> %s\n", o.seq.c_str(), o.out.c_str());
@@ -498,6 +522,7 @@ int run(const Options& o) {
       map_counts.occupied, map_counts.region_occupied, map_counts.region_free,
       map_counts.region_unknown, 1e3 * map_counts.seconds);
   if (map_log != nullptr) std::printf("  %s (map_frames.csv)\n", map_log->summary().c_str());
+  if (map_counts.has_model) print_model_holes(map_counts.model, config.map.max_depth);
   return skipped.total() > 0 ? kExitCompletedWithGaps : 0;
 }
 

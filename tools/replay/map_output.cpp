@@ -49,6 +49,21 @@ FinalMapCounts count_region(const OccupancyMap& map, const Eigen::Vector3f& came
   return n;
 }
 
+// map_summary.txt keys of the map against the static model.
+void add_model_entries(const ModelHoleCounts& h,
+                       std::vector<std::pair<std::string, std::string>>* entries) {
+  auto add = [&](const std::string& prefix, const ModelHoleCounts::States& s) {
+    entries->emplace_back(prefix + "_voxels", std::to_string(s.voxels));
+    entries->emplace_back(prefix + "_occupied", std::to_string(s.occupied));
+    entries->emplace_back(prefix + "_free", std::to_string(s.free));
+    entries->emplace_back(prefix + "_unknown", std::to_string(s.unknown));
+    entries->emplace_back(prefix + "_free_percent", num(s.free_percent()));
+  };
+  add("model_region", h.region);
+  add("model_within_max_depth", h.depth);
+  entries->emplace_back("model_misaligned", std::to_string(h.misaligned));
+}
+
 }  // namespace
 
 MapFrameLog::MapFrameLog(const StaticWorld& world, const OccupancyMap& map,
@@ -94,7 +109,8 @@ std::string MapFrameLog::summary() const {
 
 FinalMapCounts write_final_map(const OccupancyMap& map, const PipelineConfig& config,
                                const Pose& last_pose, std::size_t frames,
-                               const std::string& out_dir) {
+                               const std::string& out_dir,
+                               const std::vector<MapVoxel>* static_model) {
   const double t0 = wall_seconds();
   std::vector<MapVoxel> voxels;
   map.for_each_occupied([&](std::uint64_t, const Eigen::Vector3f& c) {
@@ -111,7 +127,7 @@ FinalMapCounts write_final_map(const OccupancyMap& map, const PipelineConfig& co
   auto triple = [](const Eigen::Vector3f& v) {
     return num(v.x()) + " " + num(v.y()) + " " + num(v.z());
   };
-  const std::vector<std::pair<std::string, std::string>> entries = {
+  std::vector<std::pair<std::string, std::string>> entries = {
       {"resolution", num(map.resolution())},
       {"min_depth", num(m.min_depth)},
       {"max_depth", num(m.max_depth)},
@@ -129,6 +145,22 @@ FinalMapCounts write_final_map(const OccupancyMap& map, const PipelineConfig& co
       {"local_region_unknown", std::to_string(n.region_unknown)},
       {"blocks_in_use", std::to_string(map.blocks_in_use())},
       {"blocks_evicted", std::to_string(map.total_blocks_evicted())}};
+  if (static_model != nullptr) {
+    n.has_model = true;
+    n.model = count_model_holes(map, *static_model, cam, m.local_half_extent, m.max_depth);
+    add_model_entries(n.model, &entries);
+    std::vector<MapVoxel> holes;
+    for (const Eigen::Vector3f& c : n.model.holes) {
+      MapVoxel v;
+      v.centre = c;
+      v.probability =
+          static_cast<float>(1.0 / (1.0 + std::exp(-static_cast<double>(map.log_odds(c)))));
+      holes.push_back(v);
+    }
+    write_map_ply(join_path(out_dir, "model_holes.ply"), holes,
+                  "dynamap-replay: static model voxels the final map holds free (map voxel "
+                  "centres, world frame, m) and the map's occupancy probability");
+  }
   write_map_summary(join_path(out_dir, "map_summary.txt"), entries);
   n.seconds = wall_seconds() - t0;
   return n;

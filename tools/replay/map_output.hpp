@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "common/map_io.hpp"
 #include "common/map_truth.hpp"
 #include "common/static_world.hpp"
 #include "dynamap/occupancy_map.hpp"
@@ -44,14 +45,20 @@ class MapFrameLog {
 struct FinalMapCounts {
   std::size_t occupied = 0;  ///< whole map
   std::size_t region = 0, region_occupied = 0, region_free = 0, region_unknown = 0;
-  double seconds = 0.0;  ///< time write_final_map() took
+  bool has_model = false;  ///< a static model was given
+  ModelHoleCounts model;   ///< the map against it (holes: model voxels held free)
+  double seconds = 0.0;    ///< time write_final_map() took
 };
 
 /// Writes DIR/map.ply (every occupied voxel centre and its probability) and
 /// DIR/map_summary.txt (grid, sampling and range parameters, counts; the local region is the
-/// map's box around the last camera position). Returns the counts.
+/// map's box around the last camera position). With `static_model` (e.g. dynamap-label
+/// --static-model's static_model.ply): the map's states at its voxels in the local region
+/// (and within max_depth of the camera) go to map_summary.txt, the held-free ones ("holes")
+/// to DIR/model_holes.ply. Returns the counts.
 FinalMapCounts write_final_map(const OccupancyMap& map, const PipelineConfig& config,
                                const Pose& last_pose, std::size_t frames,
-                               const std::string& out_dir);
+                               const std::string& out_dir,
+                               const std::vector<MapVoxel>* static_model = nullptr);
 
 }  // namespace dynamap::tools
