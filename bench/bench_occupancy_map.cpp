@@ -104,7 +104,7 @@ struct Dataset {
   CameraIntrinsics cam;  // defaults: 640x480, fx 535.4
   OccupancyMapConfig config;
   std::vector<Frame> frames;
-  std::size_t returns = 0, no_returns = 0;
+  std::size_t returns = 0, no_returns = 0, unmeasured = 0;
 
   DepthView view(const Frame& f) const {
     return DepthView{f.depth.data(), cam.width, cam.height,
@@ -140,14 +140,20 @@ const Dataset& dataset() {
               static_cast<std::uint16_t>(std::lround(std::clamp(z, 0.f, 60.f) / c.depth_scale));
         }
       }
-      // OctoMap input: the same sampled pixels. No-return pixels become a point beyond the max
-      // range so OctoMap inserts a free-only ray truncated at 5 m (range, not camera z).
+      // OctoMap input: the same sampled pixels and the same rule. A pixel without a
+      // measurement (0) is no ray at all, as in dynamap; one beyond the map range becomes a
+      // point beyond the max range so OctoMap inserts a free-only ray truncated at 5 m (range,
+      // not camera z).
       for (int v = cfg.pixel_margin; v < c.height - cfg.pixel_margin; v += cfg.pixel_stride) {
         for (int u = cfg.pixel_margin; u < c.width - cfg.pixel_margin; u += cfg.pixel_stride) {
           const std::uint16_t raw = f.depth[static_cast<std::size_t>(v * c.width + u)];
           float z = static_cast<float>(raw) * c.depth_scale;
-          if (raw != 0 && z < cfg.min_depth) continue;
-          if (raw == 0 || z > cfg.max_depth) {
+          if (raw == 0) {
+            ++d.unmeasured;
+            continue;
+          }
+          if (z < cfg.min_depth) continue;
+          if (z > cfg.max_depth) {
             z = cfg.max_depth + 1.f;
             ++d.no_returns;
           } else {
@@ -380,10 +386,11 @@ void print_dynamap(const char* what, const RunResult& r) {
 void print_summary(Quick quick) {
   const Dataset& d = dataset();
   std::printf(
-      "\n== summary: %d frames 640x480, stride %d, margin %d; %.0f returns + %.0f "
-      "no-return pixels per frame ==\n",
+      "\n== summary: %d frames 640x480, stride %d, margin %d; %.0f returns + %.0f beyond "
+      "the map range + %.0f unmeasured (0) sampled pixels per frame ==\n",
       kFrames, d.config.pixel_stride, d.config.pixel_margin,
-      static_cast<double>(d.returns) / kFrames, static_cast<double>(d.no_returns) / kFrames);
+      static_cast<double>(d.returns) / kFrames, static_cast<double>(d.no_returns) / kFrames,
+      static_cast<double>(d.unmeasured) / kFrames);
   std::printf(
       "(per-frame medians of thread CPU time over 5 x %d frames; wall-clock medians in "
       "brackets)\n",
