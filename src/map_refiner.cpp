@@ -63,6 +63,24 @@ Status MapRefiner::refine(const OccupancyMap& map, const VoxelLookup& clean_hist
   return Status::kOk;
 }
 
+float MapRefiner::static_share(const OccupancyMap& map, const Box3& raw_box,
+                               float floor_top) const noexcept {
+  // Voxels whose centre lies within half a voxel of the raw box, above the floor band.
+  const float half = 0.5f * map.resolution();
+  Box3 box = raw_box;
+  box.min.array() -= half;
+  box.max.array() += half;
+  box.min.z() = std::max(box.min.z(), floor_top);
+  if (box.max.z() < box.min.z()) return 0.f;
+  std::size_t all = 0, old = 0;
+  map.for_each_occupied_in_box(box, config_.max_voxels_per_box,
+                               [&](OccupancyMap::VoxelKey, const Eigen::Vector3f& c) {
+                                 ++all;
+                                 old += map.occupied_frames(c) >= config_.static_frames;
+                               });
+  return all > 0 ? static_cast<float>(old) / static_cast<float>(all) : 0.f;
+}
+
 void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
                             Detection& d) noexcept {
   const float res = map.resolution();
@@ -80,10 +98,6 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   Eigen::Vector3f hi = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
   std::size_t support = 0;
-  std::size_t in_raw = 0, old_in_raw = 0;  // map voxels in the raw box, and long-occupied ones
-  Box3 raw = d.raw_box;
-  raw.min.array() -= half;
-  raw.max.array() += half;
   const auto add = [&](const Eigen::Vector3f& c) noexcept {
     if (c.z() < floor_top) return;  // centre below the floor band (belt and braces)
     lo = lo.cwiseMin(c);
@@ -108,12 +122,7 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
 
     // Pass 1: occupied voxels, block-wise through the map (skips unallocated blocks).
     map.for_each_occupied_in_box(search, config_.max_voxels_per_box,
-                                 [&](OccupancyMap::VoxelKey, const Eigen::Vector3f& c) {
-                                   add(c);
-                                   if (c.z() < floor_top || !raw.contains(c)) return;
-                                   ++in_raw;
-                                   old_in_raw += map.occupied_frames(c) >= config_.static_frames;
-                                 });
+                                 [&](OccupancyMap::VoxelKey, const Eigen::Vector3f& c) { add(c); });
 
     // Pass 2: voxels in the clean history count as occupied (they were freed on purpose).
     if (!clean.empty() && n_total > 0) {
@@ -132,8 +141,12 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
   }
 
   stats_.support_voxels += support;
-  d.static_share = in_raw > 0 ? static_cast<float>(old_in_raw) / static_cast<float>(in_raw) : 0.f;
-  Box3 refined{lo - Eigen::Vector3f::Constant(half), hi + Eigen::Vector3f::Constant(half)};
+  d.static_share = static_share(map, d.raw_box, floor_top);
+  apply_support(Box3{lo - Eigen::Vector3f::Constant(half), hi + Eigen::Vector3f::Constant(half)},
+                support, d);
+}
+
+void MapRefiner::apply_support(Box3 refined, std::size_t support, Detection& d) noexcept {
   if (config_.tighten_only && support > 0) {
     refined.min = refined.min.cwiseMax(d.raw_box.min);
     refined.max = refined.max.cwiseMin(d.raw_box.max);

@@ -81,6 +81,10 @@ class MapRefiner {
 
  private:
   void refine_one(const OccupancyMap& map, const VoxelLookup& clean, Detection& d) noexcept;
+  /// Sets d.box from the support's voxel bounds `refined` (or keeps the raw box).
+  void apply_support(Box3 refined, std::size_t support, Detection& d) noexcept;
+  /// Detection::static_share of a raw box.
+  float static_share(const OccupancyMap& map, const Box3& raw_box, float floor_top) const noexcept;
 
   MapRefinerConfig config_{};
   float ground_height_ = 0.f;
