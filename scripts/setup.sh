@@ -12,6 +12,7 @@ PACKAGES=(
   g++-aarch64-linux-gnu qemu-user                # Jetson cross build, tests under qemu-aarch64
   libboost-dev liboctomap-dev                    # benchmark peers (boost::lockfree, OctoMap)
   libpng-dev libcairo2-dev libyaml-cpp-dev       # tools: PNG depth, pictures, YAML parameters
+  libzstd-dev liblz4-dev                         # tools: ROS 2 bags (MCAP chunk compression)
   clang libclang-rt-14-dev                       # fuzz preset: libFuzzer, ASan, UBSan
   clang-tidy                                     # static checks of the library (run_tests.sh)
 )

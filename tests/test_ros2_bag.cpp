@@ -1,0 +1,299 @@
+// ROS 2 bags: the MCAP reader and writer, CDR and ros2msg decoding, the two real bags recorded by
+// rosbag2 (../shared/data/rosbag2, skipped when absent), bags as sequences (folder -> bag gives
+// the same frames and poses), and damaged bags (truncated at every byte, a flipped CRC, an
+// unknown compression, a topic of the wrong type, an image whose step lies, a broken tf chain).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "common/cdr.hpp"
+#include "common/mcap_reader.hpp"
+#include "common/mcap_writer.hpp"
+#include "common/png_io.hpp"
+#include "common/ros2_bag.hpp"
+#include "common/ros2_convert.hpp"
+#include "common/sequence.hpp"
+#include "common/text_io.hpp"
+
+namespace fs = std::filesystem;
+using namespace dynamap::tools;
+
+namespace {
+
+class TempDir {
+ public:
+  TempDir() {
+    char tmpl[] = "/tmp/dynamap_test_bag_XXXXXX";
+    const char* p = ::mkdtemp(tmpl);
+    if (p == nullptr) throw std::runtime_error("mkdtemp failed");
+    path_ = p;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
+
+ private:
+  std::string path_;
+};
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+const std::string kShared = DYNAMAP_SHARED_DATA_DIR "/rosbag2";
+
+// A small sequence folder: 6 depth images 8x6, poses at other stamps, camera.txt.
+void make_sequence(const std::string& dir) {
+  fs::create_directories(dir + "/depth");
+  std::ofstream cam(dir + "/camera.txt");
+  cam << "fx 10\nfy 11\ncx 4\ncy 3\nwidth 8\nheight 6\ndepth_factor 5000\nworld_z_up 1\n";
+  std::ofstream depth(dir + "/depth.txt");
+  std::ofstream gt(dir + "/groundtruth.txt");
+  depth << "# depth\n";
+  for (int k = 0; k < 6; ++k) {
+    Image16 img{8, 6, std::vector<std::uint16_t>(48)};
+    for (int p = 0; p < 48; ++p) img.pixels[p] = static_cast<std::uint16_t>(1000 * k + p);
+    const std::string stamp = "1548339819." + std::to_string(10000 + 3333 * k);
+    write_png16(dir + "/depth/" + stamp + ".png", img);
+    depth << stamp << " depth/" << stamp << ".png\n";
+  }
+  for (int k = 0; k < 14; ++k) {
+    gt << "1548339819." << 9000 + 1700 * k << " " << 0.1 * k << " 1.5 " << 1.0 + 0.01 * k
+       << " 0.70710678 0.0 0.01 0.70710678\n";
+  }
+}
+
+}  // namespace
+
+TEST(McapReader, TheTwoRealBagsDecodeCompletely) {
+  if (!fs::exists(kShared + "/talker/talker.mcap")) {
+    GTEST_SKIP() << kShared << " is absent: the real rosbag2 bags are not checked";
+  }
+  Ros2Bag talker(kShared + "/talker");
+  EXPECT_TRUE(talker.problems().empty());
+  ASSERT_NE(talker.topic("/topic"), nullptr);
+  EXPECT_EQ(talker.topic("/topic")->type, "std_msgs/msg/String");
+  const auto msgs = talker.messages("/topic");
+  ASSERT_EQ(msgs.size(), 10u);
+  for (std::size_t k = 0; k < msgs.size(); ++k) {
+    EXPECT_EQ(talker.decode(msgs[k])["data"].s, "Hello, world! " + std::to_string(k));
+  }
+  const auto log = talker.messages("/rosout");
+  ASSERT_EQ(log.size(), 10u);
+  EXPECT_EQ(talker.decode(log[0])["name"].s, "minimal_publisher");
+  EXPECT_EQ(talker.decode(log[0])["line"].number(), 38);
+
+  Ros2Bag cdr(kShared + "/cdr_test");
+  EXPECT_TRUE(cdr.problems().empty());
+  const auto basic = cdr.messages("/test_topic");
+  ASSERT_EQ(basic.size(), 3u);
+  const auto arrays = cdr.messages("/array_topic");
+  ASSERT_EQ(arrays.size(), 4u);
+  const ros2msg::Value a = cdr.decode(arrays[0]);
+  EXPECT_EQ(a["string_values"].items.at(1).s, "Complex Hello2");
+  EXPECT_EQ(a["defaults_values"].items.at(0)["int16_value"].number(), -1000);
+  EXPECT_EQ(a["defaults_values"].items.at(0)["float32_value"].number(), 1.125);
+  EXPECT_EQ(a["defaults_values"].items.at(0)["uint64_value"].u, 50000000u);
+  for (const auto& m : basic) EXPECT_NO_THROW(cdr.decode(m));
+}
+
+TEST(McapReader, WrittenFilesReadBackIndexedAndScanned) {
+  TempDir tmp;
+  for (const std::string compression : {"", "zstd", "lz4"}) {
+    const std::string path = tmp / ("w" + compression + ".mcap");
+    {
+      mcap::Writer w(path, "ros2", compression, 300);
+      const auto s = w.add_schema("std_msgs/msg/String", "ros2msg", "string data\n");
+      const auto c = w.add_channel(s, "/chatter", "cdr");
+      for (int k = 0; k < 50; ++k) {
+        cdr::Writer m;
+        m.string("message " + std::to_string(k));
+        w.write(c, 1000 + k, 1000 + k, m.data().data(), m.data().size());
+      }
+      w.add_metadata("info", {{"key", "value"}});
+      w.close();
+    }
+    mcap::Reader r(path);
+    EXPECT_TRUE(r.used_summary()) << compression;
+    EXPECT_TRUE(r.warnings().empty()) << compression;
+    EXPECT_TRUE(r.damage().empty()) << compression;
+    ASSERT_EQ(r.messages().size(), 50u) << compression;
+    ASSERT_EQ(r.metadata().size(), 1u);
+    EXPECT_EQ(r.metadata()[0].values.at("key"), "value");
+    Ros2Bag bag(path);
+    const auto msgs = bag.messages("/chatter");
+    EXPECT_EQ(bag.decode(msgs[49])["data"].s, "message 49");
+    // Without the footer: a linear scan finds the same messages and reports the cut.
+    const std::string bytes = read_bytes(path);
+    write_bytes(tmp / "cut.mcap", bytes.substr(0, bytes.size() - 8));
+    mcap::Reader cut(tmp / "cut.mcap");
+    EXPECT_FALSE(cut.used_summary());
+    EXPECT_EQ(cut.messages().size(), 50u);
+  }
+}
+
+TEST(McapReader, TruncatedAtAnyByteFlippedCrcAndUnknownCompression) {
+  TempDir tmp;
+  const std::string path = tmp / "z.mcap";
+  {
+    mcap::Writer w(path, "ros2", "zstd", 200);
+    const auto s = w.add_schema("std_msgs/msg/String", "ros2msg", "string data\n");
+    const auto c = w.add_channel(s, "/chatter", "cdr");
+    for (int k = 0; k < 20; ++k) {
+      cdr::Writer m;
+      m.string("message " + std::to_string(k));
+      w.write(c, 1000 + k, 1000 + k, m.data().data(), m.data().size());
+    }
+  }
+  const std::string bytes = read_bytes(path);
+  for (std::size_t n = 0; n < bytes.size(); ++n) {
+    write_bytes(tmp / "t.mcap", bytes.substr(0, n));
+    try {
+      mcap::Reader r(tmp / "t.mcap");
+      EXPECT_FALSE(r.damage().empty() && r.messages().size() < 20) << "cut at " << n;
+      EXPECT_LE(r.messages().size(), 20u);
+    } catch (const ToolError& e) {
+      EXPECT_LT(n, 8u) << e.what();  // only without the whole magic
+    }
+  }
+  // A flipped byte inside the first chunk's compressed records: that chunk is skipped, named.
+  mcap::Reader good(path);
+  ASSERT_GE(good.chunks().size(), 2u);
+  std::string flipped = bytes;
+  flipped[good.chunks()[0].data_offset + good.chunks()[0].data_size - 3] ^= 0x40;
+  write_bytes(tmp / "f.mcap", flipped);
+  mcap::Reader f(tmp / "f.mcap");
+  ASSERT_FALSE(f.warnings().empty());
+  EXPECT_NE(f.warnings()[0].find("at byte " + std::to_string(good.chunks()[0].file_offset)),
+            std::string::npos)
+      << f.warnings()[0];
+  EXPECT_LT(f.messages().size(), 20u);
+  // An unknown compression name: the chunk is skipped with a warning naming it.
+  std::string unknown = bytes;
+  const auto at = unknown.find("zstd");
+  unknown.replace(at, 4, "brot");
+  write_bytes(tmp / "u.mcap", unknown);
+  mcap::Reader u(tmp / "u.mcap");
+  ASSERT_FALSE(u.warnings().empty());
+  EXPECT_NE(u.warnings()[0].find("unknown compression 'brot'"), std::string::npos)
+      << u.warnings()[0];
+}
+
+TEST(Ros2Bag, FolderToBagGivesTheSameFramesAndPoses) {
+  TempDir tmp;
+  make_sequence(tmp / "seq");
+  BagWriteOptions w;
+  const ConvertReport r = folder_to_bag(tmp / "seq", tmp / "bag", w);
+  EXPECT_EQ(r.images, 6u);
+  EXPECT_TRUE(is_ros2_bag(tmp / "bag"));
+  EXPECT_TRUE(fs::exists(tmp / "bag/metadata.yaml"));
+  const Sequence a = read_sequence(tmp / "seq");
+  const Sequence b = read_sequence(tmp / "bag");
+  ASSERT_EQ(a.frames.size(), b.frames.size());
+  EXPECT_EQ(b.camera.fx, 10);
+  EXPECT_EQ(b.camera.depth_factor, 5000);
+  EXPECT_EQ(b.camera.world_z_up, 1);
+  for (std::size_t k = 0; k < a.frames.size(); ++k) {
+    EXPECT_EQ(a.frames[k].stamp_text, b.frames[k].stamp_text);
+    EXPECT_EQ(a.frames[k].stamp, b.frames[k].stamp);
+    EXPECT_EQ(a.frames[k].pose.translation, b.frames[k].pose.translation);
+    EXPECT_EQ(a.frames[k].pose.rotation.coeffs(), b.frames[k].pose.rotation.coeffs());
+    EXPECT_EQ(load_depth(a, a.frames[k]).pixels, load_depth(b, b.frames[k]).pixels);
+  }
+  // And back to a folder: the same again.
+  bag_to_folder(tmp / "bag", tmp / "back", {});
+  const Sequence c = read_sequence(tmp / "back");
+  ASSERT_EQ(c.frames.size(), a.frames.size());
+  for (std::size_t k = 0; k < a.frames.size(); ++k) {
+    EXPECT_EQ(a.frames[k].stamp_text, c.frames[k].stamp_text);
+    EXPECT_EQ(a.frames[k].pose.translation, c.frames[k].pose.translation);
+    EXPECT_EQ(a.frames[k].pose.rotation.coeffs(), c.frames[k].pose.rotation.coeffs());
+    EXPECT_EQ(load_depth(a, a.frames[k]).pixels, load_depth(c, c.frames[k]).pixels);
+  }
+}
+
+TEST(Ros2Bag, WrongTopicTypeAndLyingImagesAreNamed) {
+  TempDir tmp;
+  make_sequence(tmp / "seq");
+  folder_to_bag(tmp / "seq", tmp / "b.mcap", {});
+  SequenceReadOptions o;
+  o.bag.depth_topic = "/camera/pose";
+  try {
+    read_sequence(tmp / "b.mcap", o);
+    FAIL() << "a pose topic read as images";
+  } catch (const ToolError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("topic /camera/pose has type geometry_msgs/msg/PoseStamped"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("/camera/depth/image_rect_raw  sensor_msgs/msg/Image"), std::string::npos)
+        << m;
+  }
+  // A bag whose image says 8 pixels a row but whose step and data hold fewer.
+  {
+    mcap::Writer w(tmp / "lie.mcap", "ros2", "");
+    auto ch = [&](const std::string& topic, const std::string& type) {
+      return w.add_channel(w.add_schema(type, "ros2msg", builtin_schema(type)), topic, "cdr");
+    };
+    const auto img = ch("/depth", "sensor_msgs/msg/Image");
+    const auto pose = ch("/pose", "geometry_msgs/msg/PoseStamped");
+    const auto info = ch("/info", "sensor_msgs/msg/CameraInfo");
+    for (int k = 0; k < 3; ++k) {
+      cdr::Writer m;
+      m.write<std::int32_t>(100 + k);
+      m.write<std::uint32_t>(0);
+      m.string("cam");
+      m.write<std::uint32_t>(6);
+      m.write<std::uint32_t>(8);
+      m.string(k == 1 ? "rgb8" : "16UC1");
+      m.write<std::uint8_t>(0);
+      m.write<std::uint32_t>(k == 2 ? 10 : 16);
+      m.write<std::uint32_t>(60);
+      m.bytes(std::string(60, '\1').data(), 60);
+      w.write(img, 0, 0, m.data().data(), m.data().size());
+      cdr::Writer p;
+      p.write<std::int32_t>(100 + k);
+      p.write<std::uint32_t>(0);
+      p.string("world");
+      for (double v : {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0}) p.write<double>(v);
+      w.write(pose, 0, 0, p.data().data(), p.data().size());
+    }
+    cdr::Writer c;
+    c.write<std::int32_t>(100);
+    c.write<std::uint32_t>(0);
+    c.string("cam");
+    c.write<std::uint32_t>(6);
+    c.write<std::uint32_t>(8);
+    c.string("plumb_bob");
+    c.write<std::uint32_t>(0);
+    for (double v : {10., 0., 4., 0., 10., 3., 0., 0., 1.}) c.write<double>(v);
+    for (int k = 0; k < 21; ++k) c.write<double>(0.0);
+    for (int k = 0; k < 6; ++k) c.write<std::uint32_t>(0);
+    c.write<std::uint8_t>(0);
+    w.write(info, 0, 0, c.data().data(), c.data().size());
+  }
+  SequenceReadOptions z;
+  z.bag.world_z_up = 1;
+  const Sequence s = read_sequence(tmp / "lie.mcap", z);
+  ASSERT_EQ(s.frames.size(), 3u);
+  Image16 out;
+  std::string why;
+  EXPECT_EQ(try_load_depth(s, s.frames[0], &out, &why), DepthProblem::kUnreadable) << why;
+  EXPECT_NE(why.find("step 16 and 60 data bytes"), std::string::npos) << why;
+  EXPECT_NE(why.find("topic /depth image at 100.000000000"), std::string::npos) << why;
+  EXPECT_EQ(try_load_depth(s, s.frames[1], &out, &why), DepthProblem::kUnreadable);
+  EXPECT_NE(why.find("encoding 'rgb8'"), std::string::npos) << why;
+  EXPECT_EQ(try_load_depth(s, s.frames[2], &out, &why), DepthProblem::kUnreadable);
+}
