@@ -195,6 +195,11 @@ void Reader::parse_record(std::uint8_t op, const std::uint8_t* body, std::uint64
       m.record_offset = at;
       const std::uint8_t* base = chunk == MessageRef::kNoChunk ? file_ : cache_.data();
       m.offset = static_cast<std::uint64_t>(c.p - base);
+      if (chunk != MessageRef::kNoChunk) {
+        m.copy = static_cast<std::uint32_t>(copies_.size());
+        const std::size_t n = m.size <= kCopyBytes ? m.size : kPrefixBytes;
+        copies_.emplace_back(reinterpret_cast<const char*>(c.p), n);
+      }
       messages_.push_back(m);
       break;
     }
@@ -385,6 +390,7 @@ void Reader::linear_scan() {
   messages_.clear();
   metadata_.clear();
   chunks_.clear();
+  copies_.clear();
   cached_chunk_ = MessageRef::kNoChunk;
   std::uint64_t pos = sizeof(kMagic);
   bool data_end = false;
@@ -425,8 +431,15 @@ void Reader::linear_scan() {
   }
 }
 
+Bytes Reader::prefix(const MessageRef& m) const {
+  if (m.chunk == MessageRef::kNoChunk) return {file_ + m.offset, m.size};
+  const std::string& c = copies_.at(m.copy);
+  return {reinterpret_cast<const std::uint8_t*>(c.data()), c.size()};
+}
+
 Bytes Reader::data(const MessageRef& m) {
   if (m.chunk == MessageRef::kNoChunk) return {file_ + m.offset, m.size};
+  if (m.size <= kCopyBytes) return prefix(m);
   std::string problem;
   const std::vector<std::uint8_t>* records = decompress(m.chunk, false, &problem);
   if (records == nullptr) throw ToolError(where(chunks_.at(m.chunk).file_offset) + ": " + problem);

@@ -68,6 +68,7 @@ struct MessageRef {
   std::uint64_t offset = 0;  ///< of the message's data
   std::uint64_t size = 0;
   std::uint64_t record_offset = 0;  ///< file offset of the record (or of its chunk)
+  std::uint32_t copy = kNoChunk;    ///< chunked: index of its copy (whole or first bytes)
 };
 
 struct ChunkInfo {
@@ -118,6 +119,12 @@ class Reader {
   /// The bytes of a message (decompressing its chunk when needed); throws ToolError on a chunk
   /// that cannot be decompressed (it was reported at open time and its messages left out).
   Bytes data(const MessageRef& message);
+  /// At least the first kPrefixBytes of a message (all of it when shorter) without
+  /// decompressing anything: messages in chunks are copied (up to kCopyBytes whole, else their
+  /// first kPrefixBytes) when the file is opened, so headers and small messages cost one pass.
+  Bytes prefix(const MessageRef& message) const;
+  static constexpr std::size_t kPrefixBytes = 512;
+  static constexpr std::size_t kCopyBytes = 64 * 1024;
 
  private:
   struct Cursor;
@@ -147,6 +154,7 @@ class Reader {
   bool used_summary_ = false;
   std::uint32_t cached_chunk_ = MessageRef::kNoChunk;
   std::vector<std::uint8_t> cache_;
+  std::vector<std::string> copies_;
 };
 
 /// Decompresses `size` bytes of `compression` ("", "zstd", "lz4") into exactly

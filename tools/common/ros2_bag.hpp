@@ -56,6 +56,8 @@ class Ros2Bag {
   std::vector<Message> messages(const std::string& topic) const;
   const std::string& topic_of(const Message& m) const;
   mcap::Bytes data(const Message& m);
+  /// The first bytes at least (mcap::Reader::prefix), without decompressing.
+  mcap::Bytes prefix(const Message& m) const { return files_[m.file]->prefix(*m.ref); }
   /// Decodes with the channel's schema (or the built-in one of a known type when the bag has
   /// none); throws ToolError naming bag, topic and log time.
   ros2msg::Value decode(const Message& m);

@@ -165,23 +165,54 @@ std::string choose_topic(const Ros2Bag& bag, const std::string& flag, const char
 
 namespace {
 
-// A decoded sensor_msgs/msg/Image as depth in units of 1/cam.depth_factor m.
-DepthProblem image_to_depth(const Value& img, const CameraModel& cam, Image16* out,
+// A sensor_msgs/msg/Image without a copy of its pixels (the layout every ROS 2 distribution
+// shares: header, height, width, encoding, is_bigendian, step, data).
+struct ImageView {
+  std::int64_t stamp_ns = 0;
+  std::string frame_id, encoding;
+  std::uint64_t width = 0, height = 0, step = 0;
+  bool big = false;
+  const std::uint8_t* data = nullptr;
+  std::size_t size = 0;
+};
+
+// Decodes the image's fields; with `pixels` false, stops before the data. Throws ToolError.
+ImageView decode_image(Ros2Bag& bag, const Ros2Bag::Message& m, bool pixels) {
+  try {
+    const mcap::Bytes b = pixels ? bag.data(m) : bag.prefix(m);
+    cdr::Reader in(b.data, b.size);
+    ImageView v;
+    const std::int32_t sec = in.read<std::int32_t>();
+    v.stamp_ns = static_cast<std::int64_t>(sec) * 1000000000LL + in.read<std::uint32_t>();
+    v.frame_id = in.string();
+    v.height = in.read<std::uint32_t>();
+    v.width = in.read<std::uint32_t>();
+    v.encoding = in.string();
+    if (!pixels) return v;
+    v.big = in.read<std::uint8_t>() != 0;
+    v.step = in.read<std::uint32_t>();
+    v.size = in.length(1);
+    v.data = in.bytes(v.size);
+    return v;
+  } catch (const ToolError& e) {
+    throw ToolError(bag.where(m) + ": " + e.what());
+  }
+}
+
+// An image as depth in units of 1/cam.depth_factor m.
+DepthProblem image_to_depth(const ImageView& img, const CameraModel& cam, Image16* out,
                             std::string* why) {
-  const std::string& enc = img["encoding"].s;
-  const auto width = static_cast<std::uint64_t>(img["width"].number());
-  const auto height = static_cast<std::uint64_t>(img["height"].number());
-  const auto step = static_cast<std::uint64_t>(img["step"].number());
-  const std::string& data = img["data"].s;
-  const bool big = img["is_bigendian"].number() != 0;
+  const std::string& enc = img.encoding;
+  const std::uint64_t width = img.width, height = img.height, step = img.step;
+  const bool big = img.big;
   const bool u16 = enc == "16UC1" || enc == "mono16";
   if (!u16 && enc != "32FC1") {
     *why = "encoding '" + enc + "' is not a depth encoding (16UC1, mono16 or 32FC1)";
     return DepthProblem::kUnreadable;
   }
   const std::uint64_t pixel = u16 ? 2 : 4;
-  if (step < width * pixel || (height > 0 && data.size() / height < step)) {
-    *why = "step " + std::to_string(step) + " and " + std::to_string(data.size()) +
+  if (step < width * pixel || (height > 0 && img.size / height < step)) {
+    *why = "step " + std::to_string(step) + " and " + std::to_string(img.size) +
            " data bytes do not hold " + std::to_string(width) + "x" + std::to_string(height) + " " +
            enc + " pixels";
     return DepthProblem::kUnreadable;
@@ -196,7 +227,7 @@ DepthProblem image_to_depth(const Value& img, const CameraModel& cam, Image16* o
   out->width = cam.width;
   out->height = cam.height;
   out->pixels.resize(width * height);
-  const auto* bytes = reinterpret_cast<const std::uint8_t*>(data.data());
+  const std::uint8_t* bytes = img.data;
   for (std::uint64_t v = 0; v < height; ++v) {
     const std::uint8_t* row = bytes + v * step;
     std::uint16_t* dst = out->pixels.data() + v * width;
@@ -230,7 +261,8 @@ class BagDepthSource : public DepthSourceBase {
     std::string why;
     DepthProblem p = DepthProblem::kUnreadable;
     try {
-      p = image_to_depth(bag_->decode(images_.at(frame.source_index)), seq.camera, out, &why);
+      p = image_to_depth(decode_image(*bag_, images_.at(frame.source_index), true), seq.camera, out,
+                         &why);
     } catch (const ToolError& e) {
       why = e.what();
     }
@@ -294,16 +326,16 @@ ImageScan scan_images(Ros2Bag& bag, const std::string& topic,
   ImageScan scan;
   std::vector<std::pair<std::int64_t, Ros2Bag::Message>> stamped;
   for (const Ros2Bag::Message& m : bag.messages(topic)) {
-    Value img;
+    ImageView img;
     try {
-      img = bag.decode(m);
+      img = decode_image(bag, m, false);
     } catch (const ToolError& e) {
       seq->warnings.push_back(std::string(e.what()) + ": image skipped");
       continue;
     }
-    stamped.emplace_back(stamp_ns_of(img["header"]), m);
-    if (scan.frame_id.empty()) scan.frame_id = strip_slash(img["header"]["frame_id"].s);
-    if (scan.encoding.empty()) scan.encoding = img["encoding"].s;
+    stamped.emplace_back(img.stamp_ns, m);
+    if (scan.frame_id.empty()) scan.frame_id = strip_slash(img.frame_id);
+    if (scan.encoding.empty()) scan.encoding = img.encoding;
   }
   std::stable_sort(stamped.begin(), stamped.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });

@@ -1,10 +1,12 @@
 // dynamap-convert: a TUM/Bonn sequence folder as a ROS 2 bag (MCAP) and back, and a bag's
 // messages as JSON (docs/tools.md, "ROS 2 bags").
 //
-//   dynamap-convert SEQ --to-bag OUT[.mcap] [--compression zstd|lz4|none] [--poses tum|bonn]
+//   dynamap-convert SEQ --to-bag OUT[.mcap] [--compression none|zstd|lz4] [--poses tum|bonn]
 //   dynamap-convert BAG --to-folder OUT [bag options]
 //   dynamap-convert BAG --json          one line per message, decoded with the bag's schemas
 //   dynamap-convert BAG --topics
+//   dynamap-convert SEQ|BAG --read-check   reads every depth image, prints the time it takes
+#include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -19,10 +21,11 @@ namespace {
 using namespace dynamap::tools;
 
 void usage(std::ostream& os) {
-  os << "usage: dynamap-convert SEQ --to-bag OUT[.mcap] [--compression zstd|lz4|none]\n"
+  os << "usage: dynamap-convert SEQ --to-bag OUT[.mcap] [--compression none|zstd|lz4]\n"
         "                       [--poses tum|bonn]\n"
         "       dynamap-convert BAG --to-folder OUT [bag options]\n"
         "       dynamap-convert BAG --json | --topics\n"
+        "       dynamap-convert SEQ|BAG --read-check [bag options]\n"
         "A folder OUT becomes a rosbag2 folder (OUT/OUT_0.mcap + metadata.yaml); OUT.mcap one\n"
         "file. Topics written: /camera/depth/image_rect_raw (16UC1 in the sequence's depth units,\n"
         "depth_factor kept in the bag's metadata), /camera/depth/camera_info, /camera/pose\n"
@@ -30,9 +33,41 @@ void usage(std::ostream& os) {
      << bag_options_usage();
 }
 
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// What reading costs the replay: the sequence opened and every depth image decoded.
+int check_reading(const std::string& input, const BagReadOptions& bag) {
+  SequenceReadOptions o;
+  o.bag = bag;
+  const double t0 = now_seconds();
+  const Sequence seq = read_sequence(input, o);
+  const double t1 = now_seconds();
+  std::size_t bad = 0;
+  std::uint64_t sum = 0;
+  for (const SequenceFrame& f : seq.frames) {
+    Image16 img;
+    std::string problem;
+    if (try_load_depth(seq, f, &img, &problem) != DepthProblem::kNone) {
+      ++bad;
+      continue;
+    }
+    sum += img.pixels[img.pixels.size() / 2];
+  }
+  const double t2 = now_seconds();
+  for (const std::string& w : seq.warnings) std::cerr << "warning: " << w << "\n";
+  std::printf(
+      "%s: %zu frames (%zu unreadable); open %.3f s, depth images %.3f s, total %.3f s"
+      " (checksum %llu)\n",
+      input.c_str(), seq.frames.size(), bad, t1 - t0, t2 - t1, t2 - t0,
+      static_cast<unsigned long long>(sum));
+  return 0;
+}
+
 int run(int argc, char** argv) {
   std::string input, to_bag, to_folder;
-  bool json = false, topics = false;
+  bool json = false, topics = false, read_check = false;
   BagWriteOptions w;
   ReplayExtras extras;
   for (int i = 1; i < argc; ++i) {
@@ -51,6 +86,8 @@ int run(int argc, char** argv) {
       to_folder = value();
     } else if (a == "--json") {
       json = true;
+    } else if (a == "--read-check") {
+      read_check = true;
     } else if (a == "--topics") {
       topics = true;
     } else if (a == "--compression") {
@@ -70,10 +107,11 @@ int run(int argc, char** argv) {
       input = a;
     }
   }
-  if (input.empty() || (to_bag.empty() && to_folder.empty() && !json && !topics)) {
+  if (input.empty() || (to_bag.empty() && to_folder.empty() && !json && !topics && !read_check)) {
     usage(std::cerr);
     return 2;
   }
+  if (read_check) return check_reading(input, extras.bag);
   if (json) {
     dump_bag_json(input, stdout);
   } else if (topics) {
