@@ -297,3 +297,98 @@ TEST(Ros2Bag, WrongTopicTypeAndLyingImagesAreNamed) {
   EXPECT_NE(why.find("encoding 'rgb8'"), std::string::npos) << why;
   EXPECT_EQ(try_load_depth(s, s.frames[2], &out, &why), DepthProblem::kUnreadable);
 }
+
+namespace {
+
+void stamp(cdr::Writer& w, int sec, const std::string& frame) {
+  w.write<std::int32_t>(sec);
+  w.write<std::uint32_t>(0);
+  w.string(frame);
+}
+
+void pose7(cdr::Writer& w, const std::vector<double>& v) {
+  for (double x : v) w.write<double>(x);
+}
+
+// Images of 8x6 at t = 10..14 s in "cam_optical", odometry of "base_link" in "odom" at 9..15 s,
+// and (with_static) /tf_static base_link -> cam_optical: a quarter turn about z and 0.2 m up.
+void write_odometry_bag(const std::string& path, bool with_static) {
+  mcap::Writer w(path, "ros2", "zstd");
+  auto ch = [&](const std::string& topic, const std::string& type) {
+    return w.add_channel(w.add_schema(type, "ros2msg", builtin_schema(type)), topic, "cdr");
+  };
+  const auto img = ch("/cam/depth", "sensor_msgs/msg/Image");
+  const auto info = ch("/cam/camera_info", "sensor_msgs/msg/CameraInfo");
+  const auto odom = ch("/odom", "nav_msgs/msg/Odometry");
+  const auto tf = ch("/tf_static", "tf2_msgs/msg/TFMessage");
+  if (with_static) {
+    cdr::Writer m;
+    m.write<std::uint32_t>(1);
+    stamp(m, 0, "base_link");
+    m.string("cam_optical");
+    pose7(m, {0, 0, 0.2, 0, 0, 0.70710678118654757, 0.70710678118654757});
+    w.write(tf, 1, 1, m.data().data(), m.data().size());
+  }
+  for (int s = 9; s <= 15; ++s) {
+    cdr::Writer m;
+    stamp(m, s, "odom");
+    m.string("base_link");
+    pose7(m, {1.0 * s, 2, 0, 0, 0, 0, 1});
+    for (int k = 0; k < 36; ++k) m.write<double>(0);
+    pose7(m, {0, 0, 0, 0, 0, 0});
+    for (int k = 0; k < 36; ++k) m.write<double>(0);
+    w.write(odom, s * 1000000000ull, 0, m.data().data(), m.data().size());
+  }
+  for (int s = 10; s <= 14; ++s) {
+    cdr::Writer m;
+    stamp(m, s, "cam_optical");
+    m.write<std::uint32_t>(6);
+    m.write<std::uint32_t>(8);
+    m.string("16UC1");
+    m.write<std::uint8_t>(0);
+    m.write<std::uint32_t>(16);
+    m.write<std::uint32_t>(96);
+    m.bytes(std::vector<std::uint8_t>(96, 7).data(), 96);
+    w.write(img, s * 1000000000ull, 0, m.data().data(), m.data().size());
+    cdr::Writer c;
+    stamp(c, s, "cam_optical");
+    c.write<std::uint32_t>(6);
+    c.write<std::uint32_t>(8);
+    c.string("plumb_bob");
+    c.write<std::uint32_t>(0);
+    for (double v : {10., 0., 4., 0., 10., 3., 0., 0., 1.}) c.write<double>(v);
+    for (int k = 0; k < 21; ++k) c.write<double>(0.0);
+    for (int k = 0; k < 6; ++k) c.write<std::uint32_t>(0);
+    c.write<std::uint8_t>(0);
+    w.write(info, s * 1000000000ull, 0, c.data().data(), c.data().size());
+  }
+}
+
+}  // namespace
+
+TEST(Ros2Bag, OdometryIsChainedThroughStaticTransformsToTheOpticalFrame) {
+  TempDir tmp;
+  write_odometry_bag(tmp / "odom.mcap", true);
+  SequenceReadOptions o;
+  o.bag.world_z_up = 1;
+  const Sequence s = read_sequence(tmp / "odom.mcap", o);
+  ASSERT_EQ(s.frames.size(), 5u);
+  EXPECT_EQ(s.frames[0].stamp_text, "10.000000000");
+  EXPECT_NEAR((s.frames[2].pose.translation - Eigen::Vector3d(12, 2, 0.2)).norm(), 0, 1e-12);
+  const Eigen::Vector3d x = s.frames[2].pose.rotation * Eigen::Vector3d::UnitX();
+  EXPECT_NEAR((x - Eigen::Vector3d::UnitY()).norm(), 0, 1e-9);  // the quarter turn
+  EXPECT_EQ(load_depth(s, s.frames[0]).pixels[5], 0x0707);
+  EXPECT_NE(s.pose_file.find("base_link -> cam_optical"), std::string::npos) << s.pose_file;
+
+  write_odometry_bag(tmp / "broken.mcap", false);
+  try {
+    read_sequence(tmp / "broken.mcap", o);
+    FAIL() << "a pose chain with a missing link was accepted";
+  } catch (const ToolError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("broken.mcap: pose chain from 'base_link' to the camera frame "
+                     "'cam_optical' at 10.000000000: no transform from 'cam_optical'"),
+              std::string::npos)
+        << m;
+  }
+}
