@@ -35,6 +35,15 @@ bool decompress(const std::string& compression, const std::uint8_t* data, std::s
     *problem = "uncompressed size " + std::to_string(uncompressed_size) + " is implausible";
     return false;
   }
+  // A compressed chunk expands at most ~4096 times (LZ4 at most 255): a larger size is corrupt,
+  // and must not be allocated.
+  const std::uint64_t most =
+      compression.empty() ? size : 4096 * static_cast<std::uint64_t>(size) + 65536;
+  if (uncompressed_size > most) {
+    *problem = "a chunk of " + std::to_string(size) + " bytes cannot hold the " +
+               std::to_string(uncompressed_size) + " bytes it says";
+    return false;
+  }
   out->resize(uncompressed_size);
   if (compression.empty()) {
     if (size != uncompressed_size) {
@@ -204,6 +213,7 @@ void Reader::parse_record(std::uint8_t op, const std::uint8_t* body, std::uint64
       break;
     }
     case kChunk:
+      if (chunk != MessageRef::kNoChunk) throw Overrun{};  // a chunk inside a chunk is corrupt
       read_chunk(body, size, at);
       break;
     case kMetadata: {

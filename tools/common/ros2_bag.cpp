@@ -125,7 +125,7 @@ bool stamp_text_to_ns(const std::string& text, std::int64_t* ns) {
   std::int64_t whole = 0, frac = 0;
   int digits = 0, frac_digits = 0;
   for (; i < text.size() && text[i] != '.'; ++i, ++digits) {
-    if (text[i] < '0' || text[i] > '9' || digits >= 11) return false;
+    if (text[i] < '0' || text[i] > '9' || digits >= 10) return false;
     whole = whole * 10 + (text[i] - '0');
   }
   if (i < text.size()) {
@@ -134,7 +134,7 @@ bool stamp_text_to_ns(const std::string& text, std::int64_t* ns) {
       frac = frac * 10 + (text[i] - '0');
     }
   }
-  if (digits == 0 && frac_digits == 0) return false;
+  if ((digits == 0 && frac_digits == 0) || whole > 9223372035LL) return false;
   for (int k = frac_digits; k < 9; ++k) frac *= 10;
   const std::int64_t v = whole * 1000000000LL + frac;
   *ns = negative ? -v : v;

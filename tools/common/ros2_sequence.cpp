@@ -18,10 +18,16 @@ std::string strip_slash(const std::string& frame) {
   return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
 }
 
+// An integer field (int32 sec, uint32 nanosec): any other kind is an error, not a cast.
+std::int64_t integer(const Value& v, const char* name) {
+  if (v.kind == Value::Kind::kInt && v.i >= INT32_MIN && v.i <= INT32_MAX) return v.i;
+  if (v.kind == Value::Kind::kUInt && v.u <= UINT32_MAX) return static_cast<std::int64_t>(v.u);
+  throw ToolError(std::string("header stamp field ") + name + " is not a 32-bit integer");
+}
+
 std::int64_t stamp_ns_of(const Value& header) {
   const Value& st = header["stamp"];
-  return static_cast<std::int64_t>(st["sec"].number()) * 1000000000LL +
-         static_cast<std::int64_t>(st["nanosec"].number());
+  return integer(st["sec"], "sec") * 1000000000LL + integer(st["nanosec"], "nanosec");
 }
 
 // The depth.txt-like seconds of a stamp: the double of its exact decimal text.
@@ -41,7 +47,9 @@ PoseD compose(const PoseD& a, const PoseD& b) {
 bool pose_of(const Value& t, const Value& q, PoseD* out, bool raw = false) {
   out->translation = {t["x"].number(), t["y"].number(), t["z"].number()};
   Eigen::Quaterniond r(q["w"].number(), q["x"].number(), q["y"].number(), q["z"].number());
-  if (!(r.norm() >= 0.5) || !out->translation.allFinite()) return false;
+  if (!(r.norm() >= 0.5) || !r.coeffs().allFinite() || !out->translation.allFinite()) {
+    return false;
+  }
   if (!raw) r.normalize();
   out->rotation = r;
   return true;
@@ -100,7 +108,13 @@ TfTree read_tf(Ros2Bag& bag, std::vector<std::string>* warnings) {
     const bool is_static = topic.find("static") != std::string::npos;
     for (const Ros2Bag::Message& m : bag.messages(topic)) {
       const Value msg = bag.decode(m);
+      if (!msg.has("transforms")) throw ToolError(bag.where(m) + ": not a tf2_msgs/TFMessage");
       for (const Value& ts : msg["transforms"].items) {
+        if (!ts.has("child_frame_id") || !ts.has("transform") || !ts.has("header")) {
+          throw ToolError(bag.where(m) +
+                          ": a transform without child_frame_id, header or "
+                          "transform");
+        }
         const std::string child = strip_slash(ts["child_frame_id"].s);
         TfTree::Edge& e = tree.edges[child];
         e.parent = strip_slash(ts["header"]["frame_id"].s);
@@ -286,6 +300,9 @@ void read_camera_info(Ros2Bag& bag, const std::string& topic, CameraModel* cam) 
   const auto msgs = bag.messages(topic);
   if (msgs.empty()) throw ToolError(bag.path() + " topic " + topic + ": no camera info message");
   const Value info = bag.decode(msgs.front());
+  if (!info.has("k") || !info.has("width") || !info.has("height")) {
+    throw ToolError(bag.where(msgs.front()) + ": camera info without k, width or height");
+  }
   const Value& k = info["k"];
   if (k.items.size() != 9) throw ToolError(bag.where(msgs.front()) + ": k is not 3x3");
   cam->fx = k.items[0].number();
@@ -293,7 +310,9 @@ void read_camera_info(Ros2Bag& bag, const std::string& topic, CameraModel* cam) 
   cam->cx = k.items[2].number();
   cam->cy = k.items[5].number();
   const double w = info["width"].number(), h = info["height"].number();
-  if (!(cam->fx > 0 && cam->fy > 0) || w < 1 || h < 1 || w > 8192 || h > 8192) {
+  if (!(cam->fx > 0 && cam->fy > 0 && std::isfinite(cam->fx) && std::isfinite(cam->fy) &&
+        std::isfinite(cam->cx) && std::isfinite(cam->cy) && w >= 1 && h >= 1 && w <= 8192 &&
+        h <= 8192)) {
     throw ToolError(bag.where(msgs.front()) + ": camera info has fx " + std::to_string(cam->fx) +
                     ", fy " + std::to_string(cam->fy) + ", " + std::to_string(w) + "x" +
                     std::to_string(h) + ": not a usable camera");
@@ -367,6 +386,26 @@ struct PoseTrack {
   std::string child;  ///< the frame whose pose the topic gives
 };
 
+// One PoseStamped or Odometry message into the track.
+void add_pose(const Ros2Bag& bag, const Ros2Bag::Message& m, const Value& msg, bool raw,
+              PoseTrack* track, std::size_t* zero, std::vector<std::string>* warnings) {
+  const bool odometry = msg.has("child_frame_id");
+  const Value& pose = odometry ? msg["pose"]["pose"] : msg["pose"];
+  if (odometry && !msg["child_frame_id"].s.empty() && track->poses.empty()) {
+    track->child = strip_slash(msg["child_frame_id"].s);
+  }
+  StampedPose p;
+  const std::int64_t ns = stamp_ns_of(msg["header"]);
+  *zero += ns == 0;
+  p.stamp = seconds_of(ns);
+  if (!pose_of(pose["position"], pose["orientation"], &p.pose, raw)) {
+    warnings->push_back(bag.where(m) +
+                        ": pose with a degenerate quaternion or a non-finite position; ignored");
+    return;
+  }
+  track->poses.push_back(p);
+}
+
 PoseTrack read_pose_topic(Ros2Bag& bag, const std::string& topic, const std::string& child,
                           bool raw, std::vector<std::string>* warnings) {
   PoseTrack track;
@@ -374,22 +413,11 @@ PoseTrack read_pose_topic(Ros2Bag& bag, const std::string& topic, const std::str
   std::size_t zero = 0;
   for (const Ros2Bag::Message& m : bag.messages(topic)) {
     const Value msg = bag.decode(m);
-    const bool odometry = msg.has("child_frame_id");
-    const Value& pose = odometry ? msg["pose"]["pose"] : msg["pose"];
-    if (odometry && !msg["child_frame_id"].s.empty() && track.poses.empty()) {
-      track.child = strip_slash(msg["child_frame_id"].s);
+    try {
+      add_pose(bag, m, msg, raw, &track, &zero, warnings);
+    } catch (const ToolError& e) {
+      throw ToolError(bag.where(m) + ": " + e.what());
     }
-    StampedPose p;
-    const std::int64_t ns = stamp_ns_of(msg["header"]);
-    zero += ns == 0;
-    p.stamp = seconds_of(ns);
-    if (!pose_of(pose["position"], pose["orientation"], &p.pose, raw)) {
-      warnings->push_back(bag.where(m) +
-                          ": pose with a degenerate quaternion or a non-finite "
-                          "position; ignored");
-      continue;
-    }
-    track.poses.push_back(p);
   }
   if (track.poses.empty()) throw ToolError(bag.path() + " topic " + topic + ": no usable pose");
   if (zero == track.poses.size()) {
