@@ -392,3 +392,21 @@ TEST(Ros2Bag, OdometryIsChainedThroughStaticTransformsToTheOpticalFrame) {
         << m;
   }
 }
+
+TEST(Ros2Bag, ATruncatedBagIsReadUpToTheDamageWhichIsNamed) {
+  TempDir tmp;
+  make_sequence(tmp / "seq");
+  BagWriteOptions w;
+  w.chunk_size = 600;  // about one image, its camera info and poses per chunk
+  folder_to_bag(tmp / "seq", tmp / "whole.mcap", w);
+  const std::size_t all = read_sequence(tmp / "seq").frames.size();
+  EXPECT_EQ(read_sequence(tmp / "whole.mcap").frames.size(), all);
+  const std::string bytes = read_bytes(tmp / "whole.mcap");
+  write_bytes(tmp / "cut.mcap", bytes.substr(0, bytes.size() * 6 / 10));
+  const Sequence s = read_sequence(tmp / "cut.mcap");
+  EXPECT_GT(s.frames.size(), 0u);
+  EXPECT_LT(s.frames.size(), all);
+  ASSERT_FALSE(s.warnings.empty());
+  EXPECT_NE(s.warnings.front().find("cut.mcap at byte"), std::string::npos) << s.warnings.front();
+  EXPECT_NE(s.warnings.front().find("messages before it"), std::string::npos) << s.warnings.front();
+}

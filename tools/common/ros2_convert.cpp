@@ -187,7 +187,7 @@ ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
   } else {
     report.output = out;
   }
-  mcap::Writer w(report.output, "ros2", o.compression);
+  mcap::Writer w(report.output, "ros2", o.compression, o.chunk_size);
   auto channel = [&](const std::string& topic, const std::string& type) {
     const std::uint16_t s = w.add_schema(type, "ros2msg", builtin_schema(type));
     return w.add_channel(s, topic, "cdr", {{"offered_qos_profiles", ""}});

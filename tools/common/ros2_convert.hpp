@@ -13,6 +13,7 @@ struct BagWriteOptions {
   /// "" (default: reading costs least), "zstd" (about 7x smaller) or "lz4" (4x)
   std::string compression;
   PoseConvention poses = PoseConvention::kTum;
+  std::size_t chunk_size = 4u << 20;  ///< bytes of messages per chunk (before compression)
   std::string depth_topic = "/camera/depth/image_rect_raw";
   std::string info_topic = "/camera/depth/camera_info";
   std::string pose_topic = "/camera/pose";
