@@ -406,6 +406,10 @@ TEST(Ros2Bag, ATruncatedBagIsReadUpToTheDamageWhichIsNamed) {
   const Sequence s = read_sequence(tmp / "cut.mcap");
   EXPECT_GT(s.frames.size(), 0u);
   EXPECT_LT(s.frames.size(), all);
+  // The metadata comes first: the cut bag keeps the depth unit, the world and the stamp texts.
+  EXPECT_EQ(s.camera.depth_factor, 5000);
+  EXPECT_EQ(s.camera.world_z_up, 1);
+  EXPECT_EQ(s.frames.front().stamp_text, read_sequence(tmp / "seq").frames.front().stamp_text);
   ASSERT_FALSE(s.warnings.empty());
   EXPECT_NE(s.warnings.front().find("cut.mcap at byte"), std::string::npos) << s.warnings.front();
   EXPECT_NE(s.warnings.front().find("messages before it"), std::string::npos) << s.warnings.front();

@@ -204,9 +204,15 @@ ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
       ++report.poses;
     }
   };
+  // The metadata first: a bag cut short (a killed recording) keeps it.
   std::string stamps;
+  for (const DepthEntry& d : depth) stamps += d.text + "\n";
+  w.add_metadata(kSequenceMetadata, {{"depth_factor", format_double(cam.depth_factor)},
+                                     {"world_z_up", std::to_string(cam.world_z_up)},
+                                     {"poses", bonn ? "bonn" : "tum"},
+                                     {"depth_stamps", stamps},
+                                     {"source", dir}});
   for (const DepthEntry& d : depth) {
-    stamps += d.text + "\n";
     poses_until(d.ns);
     Image16 img;
     try {
@@ -230,11 +236,6 @@ ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
     ++report.images;
   }
   poses_until(INT64_MAX);
-  w.add_metadata(kSequenceMetadata, {{"depth_factor", format_double(cam.depth_factor)},
-                                     {"world_z_up", std::to_string(cam.world_z_up)},
-                                     {"poses", bonn ? "bonn" : "tum"},
-                                     {"depth_stamps", stamps},
-                                     {"source", dir}});
   w.close();
   if (folder) {
     const std::int64_t start = std::min(depth.empty() ? 0 : depth.front().ns,
