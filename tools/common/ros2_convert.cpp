@@ -177,6 +177,8 @@ ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
   }
   const std::vector<DepthEntry> depth = read_depth_entries(dir);
   const std::vector<RawPose> poses = read_raw_poses(gt);
+  Sequence stub;  // try_load_depth() checks each image as the folder's replay would
+  stub.camera = cam;
   ConvertReport report;
   std::string file = out;
   const bool folder = out.size() < 5 || out.compare(out.size() - 5, 5, ".mcap") != 0;
@@ -205,27 +207,37 @@ ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
     }
   };
   // The metadata first: a bag cut short (a killed recording) keeps it.
-  std::string stamps;
-  for (const DepthEntry& d : depth) stamps += d.text + "\n";
+  // Listed depth files the folder lacks are listed too, so the bag's replay skips, counts and
+  // names them as the folder's does; unreadable ones follow in a second record at the end.
+  std::string stamps, missing, unusable;
+  for (const DepthEntry& d : depth) {
+    stamps += d.text + "\n";
+    const std::string path = join_path(dir, d.file);
+    if (!file_exists(path)) {
+      missing += d.text + "\t" + std::to_string(static_cast<int>(DepthProblem::kMissing)) + "\t" +
+                 path + ": listed in depth.txt but missing\n";
+    }
+  }
   w.add_metadata(kSequenceMetadata, {{"depth_factor", format_double(cam.depth_factor)},
                                      {"world_z_up", std::to_string(cam.world_z_up)},
                                      {"poses", bonn ? "bonn" : "tum"},
                                      {"depth_stamps", stamps},
+                                     {"skipped_depth", missing},
                                      {"source", dir}});
   for (const DepthEntry& d : depth) {
     poses_until(d.ns);
     Image16 img;
-    try {
-      img = read_png16(join_path(dir, d.file));
-    } catch (const ToolError& e) {
-      std::cerr << "warning: skipped: " << e.what() << "\n";
+    std::string message;
+    SequenceFrame frame;
+    frame.depth_path = join_path(dir, d.file);
+    const DepthProblem problem = try_load_depth(stub, frame, &img, &message);
+    if (problem != DepthProblem::kNone) {
+      std::cerr << "warning: skipped: " << message << "\n";
       ++report.skipped;
-      continue;
-    }
-    if (img.width != cam.width || img.height != cam.height) {
-      std::cerr << "warning: skipped: " << join_path(dir, d.file) << ": not " << cam.width << "x"
-                << cam.height << "\n";
-      ++report.skipped;
+      if (problem != DepthProblem::kMissing) {
+        unusable +=
+            d.text + "\t" + std::to_string(static_cast<int>(problem)) + "\t" + message + "\n";
+      }
       continue;
     }
     const auto t = static_cast<std::uint64_t>(d.ns);
@@ -236,6 +248,7 @@ ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
     ++report.images;
   }
   poses_until(INT64_MAX);
+  if (!unusable.empty()) w.add_metadata(kSequenceMetadata, {{"skipped_depth", unusable}});
   w.close();
   if (folder) {
     const std::int64_t start = std::min(depth.empty() ? 0 : depth.front().ns,
@@ -265,12 +278,15 @@ ConvertReport bag_to_folder(const std::string& bag, const std::string& out,
   for (const SequenceFrame& f : seq.frames) {
     Image16 img;
     std::string problem;
-    if (try_load_depth(seq, f, &img, &problem) != DepthProblem::kNone) {
+    const std::string name = "depth/" + f.stamp_text + ".png";
+    const DepthProblem p = try_load_depth(seq, f, &img, &problem);
+    if (p != DepthProblem::kNone) {
       std::cerr << "warning: skipped: " << problem << "\n";
       ++report.skipped;
+      // Listed but missing in the bag's source folder: listed, and missing, here too.
+      if (p == DepthProblem::kMissing) list << f.stamp_text << " " << name << "\n";
       continue;
     }
-    const std::string name = "depth/" + f.stamp_text + ".png";
     write_png16(join_path(out, name), img);
     list << f.stamp_text << " " << name << "\n";
     ++report.images;

@@ -266,12 +266,24 @@ DepthProblem image_to_depth(const ImageView& img, const CameraModel& cam, Image1
   return DepthProblem::kNone;
 }
 
+/// A depth file the source folder could not give (dynamap-convert's skipped_depth list).
+struct SkippedDepth {
+  DepthProblem problem = DepthProblem::kMissing;
+  std::string message;
+};
+
 class BagDepthSource : public DepthSourceBase {
  public:
-  BagDepthSource(std::shared_ptr<Ros2Bag> bag, std::vector<Ros2Bag::Message> images)
-      : bag_(std::move(bag)), images_(std::move(images)) {}
+  BagDepthSource(std::shared_ptr<Ros2Bag> bag, std::vector<Ros2Bag::Message> images,
+                 std::vector<SkippedDepth> skipped)
+      : bag_(std::move(bag)), images_(std::move(images)), skipped_(std::move(skipped)) {}
   DepthProblem load(const Sequence& seq, const SequenceFrame& frame, Image16* out,
                     std::string* message) override {
+    if (frame.source_index >= images_.size()) {
+      const SkippedDepth& s = skipped_.at(frame.source_index - images_.size());
+      *message = s.message;
+      return s.problem;
+    }
     std::string why;
     DepthProblem p = DepthProblem::kUnreadable;
     try {
@@ -287,13 +299,23 @@ class BagDepthSource : public DepthSourceBase {
  private:
   std::shared_ptr<Ros2Bag> bag_;
   std::vector<Ros2Bag::Message> images_;
+  std::vector<SkippedDepth> skipped_;
 };
 
+// dynamap-convert's records merged (the skipped_depth lists of both appended).
 std::map<std::string, std::string> sequence_metadata(const Ros2Bag& bag) {
+  std::map<std::string, std::string> merged;
   for (const mcap::MetadataRecord& r : bag.metadata()) {
-    if (r.name == kSequenceMetadata) return r.values;
+    if (r.name != kSequenceMetadata) continue;
+    for (const auto& [k, v] : r.values) {
+      if (k == "skipped_depth") {
+        merged[k] += v;
+      } else {
+        merged.emplace(k, v);
+      }
+    }
   }
-  return {};
+  return merged;
 }
 
 void read_camera_info(Ros2Bag& bag, const std::string& topic, CameraModel* cam) {
@@ -324,9 +346,38 @@ void read_camera_info(Ros2Bag& bag, const std::string& topic, CameraModel* cam) 
 struct ImageScan {
   std::vector<SequenceFrame> candidates;
   std::vector<Ros2Bag::Message> images;
+  std::vector<SkippedDepth> skipped;
   std::string frame_id;
   std::string encoding;
 };
+
+// The depth files dynamap-convert could not put in the bag, as listed frames whose loading
+// reports what the folder's replay reported.
+void add_skipped(const std::map<std::string, std::string>& meta, ImageScan* scan, Sequence* seq) {
+  const auto it = meta.find("skipped_depth");
+  if (it == meta.end() || it->second.empty()) return;
+  std::istringstream is(it->second);
+  std::string line;
+  while (std::getline(is, line)) {
+    const auto a = line.find('\t');
+    const auto b = a == std::string::npos ? a : line.find('\t', a + 1);
+    if (b == std::string::npos) continue;
+    SequenceFrame f;
+    f.stamp_text = line.substr(0, a);
+    char* end = nullptr;
+    f.stamp = std::strtod(f.stamp_text.c_str(), &end);
+    const int kind = std::atoi(line.substr(a + 1, b - a - 1).c_str());
+    if (end == f.stamp_text.c_str() || !std::isfinite(f.stamp) || kind < 1 || kind > 3) continue;
+    f.depth_path = line.substr(b + 1);
+    f.source_index = scan->images.size() + scan->skipped.size();
+    scan->skipped.push_back({static_cast<DepthProblem>(kind), line.substr(b + 1)});
+    scan->candidates.push_back(std::move(f));
+    ++seq->images_listed;
+  }
+  std::stable_sort(
+      scan->candidates.begin(), scan->candidates.end(),
+      [](const SequenceFrame& x, const SequenceFrame& y) { return x.stamp < y.stamp; });
+}
 
 // Every image's header (stamp, frame, encoding), sorted by stamp; the stamp texts of
 // dynamap-convert's metadata when they name the same nanosecond.
@@ -374,6 +425,7 @@ ImageScan scan_images(Ros2Bag& bag, const std::string& topic,
     scan.candidates.push_back(std::move(f));
   }
   seq->images_listed = stamped.size();
+  add_skipped(meta, &scan, seq);
   return scan;
 }
 
@@ -525,7 +577,7 @@ Sequence read_ros2_bag(const std::string& path, const SequenceReadOptions& optio
       pose_topic.empty() ||
       ros2msg::normalise_type(bag->topic(pose_topic)->type) == "tf2_msgs/TFMessage";
   seq.pose_file = path + " topic " + (tf_topic ? std::string("/tf") : pose_topic);
-  seq.source = std::make_shared<BagDepthSource>(bag, scan.images);
+  seq.source = std::make_shared<BagDepthSource>(bag, scan.images, scan.skipped);
   if (!tf_topic) {
     const PoseTrack track =
         read_pose_topic(*bag, pose_topic, o.pose_child.empty() ? camera : strip_slash(o.pose_child),
