@@ -329,15 +329,16 @@ void pose7(cdr::Writer& w, const std::vector<double>& v) {
 
 // Images of 8x6 at t = 10..14 s in "cam_optical", odometry of "base_link" in "odom" at 9..15 s,
 // and (with_static) /tf_static base_link -> cam_optical: a quarter turn about z and 0.2 m up.
-void write_odometry_bag(const std::string& path, bool with_static) {
+void write_odometry_bag(const std::string& path, bool with_static, bool tf_only = false) {
   mcap::Writer w(path, "ros2", "zstd");
   auto ch = [&](const std::string& topic, const std::string& type) {
     return w.add_channel(w.add_schema(type, "ros2msg", builtin_schema(type)), topic, "cdr");
   };
   const auto img = ch("/cam/depth", "sensor_msgs/msg/Image");
   const auto info = ch("/cam/camera_info", "sensor_msgs/msg/CameraInfo");
-  const auto odom = ch("/odom", "nav_msgs/msg/Odometry");
+  const auto odom = tf_only ? 0 : ch("/odom", "nav_msgs/msg/Odometry");
   const auto tf = ch("/tf_static", "tf2_msgs/msg/TFMessage");
+  const auto tf_dyn = ch("/tf", "tf2_msgs/msg/TFMessage");
   if (with_static) {
     cdr::Writer m;
     m.write<std::uint32_t>(1);
@@ -346,7 +347,15 @@ void write_odometry_bag(const std::string& path, bool with_static) {
     pose7(m, {0, 0, 0.2, 0, 0, 0.70710678118654757, 0.70710678118654757});
     w.write(tf, 1, 1, m.data().data(), m.data().size());
   }
-  for (int s = 9; s <= 15; ++s) {
+  for (int s = 9; s <= 15 && tf_only; ++s) {  // the same motion as /tf odom -> base_link
+    cdr::Writer m;
+    m.write<std::uint32_t>(1);
+    stamp(m, s, "odom");
+    m.string("base_link");
+    pose7(m, {1.0 * s, 2, 0, 0, 0, 0, 1});
+    w.write(tf_dyn, s * 1000000000ull, 0, m.data().data(), m.data().size());
+  }
+  for (int s = 9; s <= 15 && !tf_only; ++s) {
     cdr::Writer m;
     stamp(m, s, "odom");
     m.string("base_link");
@@ -396,6 +405,13 @@ TEST(Ros2Bag, OdometryIsChainedThroughStaticTransformsToTheOpticalFrame) {
   EXPECT_NEAR((x - Eigen::Vector3d::UnitY()).norm(), 0, 1e-9);  // the quarter turn
   EXPECT_EQ(load_depth(s, s.frames[0]).pixels[5], 0x0707);
   EXPECT_NE(s.pose_file.find("base_link -> cam_optical"), std::string::npos) << s.pose_file;
+
+  // The same motion on /tf alone (no pose topic): the chain odom -> base_link -> cam_optical.
+  write_odometry_bag(tmp / "tf.mcap", true, true);
+  const Sequence t = read_sequence(tmp / "tf.mcap", o);
+  ASSERT_EQ(t.frames.size(), 5u);
+  EXPECT_NEAR((t.frames[2].pose.translation - Eigen::Vector3d(12, 2, 0.2)).norm(), 0, 1e-12);
+  EXPECT_NE(t.pose_file.find("(odom -> cam_optical)"), std::string::npos) << t.pose_file;
 
   write_odometry_bag(tmp / "broken.mcap", false);
   try {
