@@ -447,3 +447,66 @@ TEST(Ros2Bag, ATruncatedBagIsReadUpToTheDamageWhichIsNamed) {
   EXPECT_NE(s.warnings.front().find("cut.mcap at byte"), std::string::npos) << s.warnings.front();
   EXPECT_NE(s.warnings.front().find("messages before it"), std::string::npos) << s.warnings.front();
 }
+
+namespace {
+
+// Little-endian record bytes for a hand-made MCAP file.
+struct Bytes {
+  std::string b;
+  template <class T>
+  Bytes& num(T v) {
+    b.append(reinterpret_cast<const char*>(&v), sizeof(T));
+    return *this;
+  }
+  Bytes& str(const std::string& s) {
+    num(static_cast<std::uint32_t>(s.size()));
+    b += s;
+    return *this;
+  }
+};
+
+std::string record(std::uint8_t op, const std::string& body) {
+  Bytes r;
+  r.num(op).num(static_cast<std::uint64_t>(body.size()));
+  return r.b + body;
+}
+
+}  // namespace
+
+TEST(McapReader, AnUnchunkedFileWithoutSummaryIsScanned) {
+  TempDir tmp;
+  const std::string magic("\x89MCAP0\r\n", 8);
+  cdr::Writer msg;
+  msg.string("unchunked");
+  std::string file = magic + record(mcap::kHeader, Bytes().str("ros2").str("hand").b);
+  file += record(mcap::kSchema, Bytes()
+                                    .num<std::uint16_t>(1)
+                                    .str("std_msgs/msg/String")
+                                    .str("ros2msg")
+                                    .str("string data\n")
+                                    .b);
+  file += record(mcap::kChannel, Bytes()
+                                     .num<std::uint16_t>(3)
+                                     .num<std::uint16_t>(1)
+                                     .str("/chatter")
+                                     .str("cdr")
+                                     .num<std::uint32_t>(0)
+                                     .b);
+  for (std::uint64_t t = 5; t < 8; ++t) {
+    Bytes m;
+    m.num<std::uint16_t>(3).num<std::uint32_t>(0).num(t).num(t);
+    m.b.append(reinterpret_cast<const char*>(msg.data().data()), msg.data().size());
+    file += record(mcap::kMessage, m.b);
+  }
+  file += record(mcap::kDataEnd, Bytes().num<std::uint32_t>(0).b);
+  file += record(mcap::kFooter,
+                 Bytes().num<std::uint64_t>(0).num<std::uint64_t>(0).num<std::uint32_t>(0).b);
+  file += magic;
+  write_bytes(tmp / "u.mcap", file);
+  mcap::Reader r(tmp / "u.mcap");
+  EXPECT_FALSE(r.used_summary());
+  EXPECT_TRUE(r.damage().empty()) << r.damage();
+  ASSERT_EQ(r.messages().size(), 3u);
+  Ros2Bag bag(tmp / "u.mcap");
+  EXPECT_EQ(bag.decode(bag.messages("/chatter").at(2))["data"].s, "unchunked");
+}
