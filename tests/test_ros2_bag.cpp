@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -329,7 +330,8 @@ void pose7(cdr::Writer& w, const std::vector<double>& v) {
 
 // Images of 8x6 at t = 10..14 s in "cam_optical", odometry of "base_link" in "odom" at 9..15 s,
 // and (with_static) /tf_static base_link -> cam_optical: a quarter turn about z and 0.2 m up.
-void write_odometry_bag(const std::string& path, bool with_static, bool tf_only = false) {
+void write_odometry_bag(const std::string& path, bool with_static, bool tf_only = false,
+                        bool metres = false) {
   mcap::Writer w(path, "ros2", "zstd");
   auto ch = [&](const std::string& topic, const std::string& type) {
     return w.add_channel(w.add_schema(type, "ros2msg", builtin_schema(type)), topic, "cdr");
@@ -370,11 +372,15 @@ void write_odometry_bag(const std::string& path, bool with_static, bool tf_only 
     stamp(m, s, "cam_optical");
     m.write<std::uint32_t>(6);
     m.write<std::uint32_t>(8);
-    m.string("16UC1");
+    m.string(metres ? "32FC1" : "16UC1");
     m.write<std::uint8_t>(0);
-    m.write<std::uint32_t>(16);
-    m.write<std::uint32_t>(96);
-    m.bytes(std::vector<std::uint8_t>(96, 7).data(), 96);
+    m.write<std::uint32_t>(metres ? 32 : 16);
+    m.write<std::uint32_t>(metres ? 192 : 96);
+    if (metres) {
+      for (int p = 0; p < 48; ++p) m.write<float>(p == 0 ? NAN : 1.2345f);
+    } else {
+      m.bytes(std::vector<std::uint8_t>(96, 7).data(), 96);
+    }
     w.write(img, s * 1000000000ull, 0, m.data().data(), m.data().size());
     cdr::Writer c;
     stamp(c, s, "cam_optical");
@@ -406,6 +412,12 @@ TEST(Ros2Bag, OdometryIsChainedThroughStaticTransformsToTheOpticalFrame) {
   EXPECT_EQ(load_depth(s, s.frames[0]).pixels[5], 0x0707);
   EXPECT_NE(s.pose_file.find("base_link -> cam_optical"), std::string::npos) << s.pose_file;
 
+  // 32FC1 depth in metres: read in millimetres, NaN as no measurement.
+  write_odometry_bag(tmp / "metres.mcap", true, false, true);
+  const Sequence f = read_sequence(tmp / "metres.mcap", o);
+  EXPECT_EQ(f.camera.depth_factor, 1000);
+  EXPECT_EQ(load_depth(f, f.frames[0]).pixels[0], 0);
+  EXPECT_EQ(load_depth(f, f.frames[0]).pixels[1], 1235);
   // The same motion on /tf alone (no pose topic): the chain odom -> base_link -> cam_optical.
   write_odometry_bag(tmp / "tf.mcap", true, true);
   const Sequence t = read_sequence(tmp / "tf.mcap", o);

@@ -545,9 +545,12 @@ void set_camera(Ros2Bag& bag, const std::string& depth_topic, const std::string&
   seq->has_camera_file = true;
   const auto f = meta.find("depth_factor");
   const auto z = meta.find("world_z_up");
-  seq->camera.depth_factor = encoding == "32FC1" ? 1000.0 : 1000.0;  // mm unless told
-  if (f != meta.end()) seq->camera.depth_factor = std::strtod(f->second.c_str(), nullptr);
-  if (o.bag.depth_factor > 0) seq->camera.depth_factor = o.bag.depth_factor;
+  // 16UC1: millimetres unless told; 32FC1 metres are stored as millimetres (1 mm steps).
+  seq->camera.depth_factor = 1000.0;
+  if (f != meta.end() && encoding != "32FC1") {
+    seq->camera.depth_factor = std::strtod(f->second.c_str(), nullptr);
+  }
+  if (o.bag.depth_factor > 0 && encoding != "32FC1") seq->camera.depth_factor = o.bag.depth_factor;
   if (!(seq->camera.depth_factor > 0)) throw ToolError(bag.path() + ": depth_factor must be > 0");
   seq->camera.world_z_up = 0;
   if (z != meta.end()) seq->camera.world_z_up = z->second == "1" ? 1 : 0;
