@@ -163,6 +163,29 @@ std::string format_double(double v) {
   return buf;
 }
 
+// dynamap-convert's metadata record. Listed depth files the folder lacks are listed too, so
+// the bag's replay skips, counts and names them as the folder's does (unreadable ones follow in
+// a second record at the end, once known).
+std::map<std::string, std::string> sequence_record(const std::string& dir, const CameraModel& cam,
+                                                   bool bonn,
+                                                   const std::vector<DepthEntry>& depth) {
+  std::string stamps, missing;
+  for (const DepthEntry& d : depth) {
+    stamps += d.text + "\n";
+    const std::string path = join_path(dir, d.file);
+    if (!file_exists(path)) {
+      missing += d.text + "\t" + std::to_string(static_cast<int>(DepthProblem::kMissing)) + "\t" +
+                 path + ": listed in depth.txt but missing\n";
+    }
+  }
+  return {{"depth_factor", format_double(cam.depth_factor)},
+          {"world_z_up", std::to_string(cam.world_z_up)},
+          {"poses", bonn ? "bonn" : "tum"},
+          {"depth_stamps", stamps},
+          {"skipped_depth", missing},
+          {"source", dir}};
+}
+
 }  // namespace
 
 ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
@@ -207,23 +230,8 @@ ConvertReport folder_to_bag(const std::string& dir, const std::string& out,
     }
   };
   // The metadata first: a bag cut short (a killed recording) keeps it.
-  // Listed depth files the folder lacks are listed too, so the bag's replay skips, counts and
-  // names them as the folder's does; unreadable ones follow in a second record at the end.
-  std::string stamps, missing, unusable;
-  for (const DepthEntry& d : depth) {
-    stamps += d.text + "\n";
-    const std::string path = join_path(dir, d.file);
-    if (!file_exists(path)) {
-      missing += d.text + "\t" + std::to_string(static_cast<int>(DepthProblem::kMissing)) + "\t" +
-                 path + ": listed in depth.txt but missing\n";
-    }
-  }
-  w.add_metadata(kSequenceMetadata, {{"depth_factor", format_double(cam.depth_factor)},
-                                     {"world_z_up", std::to_string(cam.world_z_up)},
-                                     {"poses", bonn ? "bonn" : "tum"},
-                                     {"depth_stamps", stamps},
-                                     {"skipped_depth", missing},
-                                     {"source", dir}});
+  w.add_metadata(kSequenceMetadata, sequence_record(dir, cam, bonn, depth));
+  std::string unusable;
   for (const DepthEntry& d : depth) {
     poses_until(d.ns);
     Image16 img;
