@@ -12,9 +12,29 @@ PACKAGES=(
   g++-aarch64-linux-gnu qemu-user                # Jetson cross build, tests under qemu-aarch64
   libboost-dev liboctomap-dev                    # benchmark peers (boost::lockfree, OctoMap)
   libpng-dev libcairo2-dev libyaml-cpp-dev       # tools: PNG depth, pictures, YAML parameters
+  libzstd-dev liblz4-dev                         # tools: ROS 2 bags (MCAP chunk compression)
   clang libclang-rt-14-dev                       # fuzz preset: libFuzzer, ASan, UBSan
   clang-tidy                                     # static checks of the library (run_tests.sh)
 )
+
+# Node.js and npm for the independent MCAP check (ctest node_check): Debian's, unless a node is
+# already on the PATH.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  PACKAGES+=(nodejs npm)
+fi
+
+# The npm packages of tools/node_check (package-lock.json), into its node_modules.
+node_packages() {
+  local dir
+  dir="$(cd "$(dirname "$0")/.." && pwd)/tools/node_check"
+  if [ -d "$dir/node_modules/@mcap/core" ] && [ -d "$dir/node_modules/@foxglove/rosmsg2-serialization" ] \
+     && [ -d "$dir/node_modules/@foxglove/rosmsg" ] && [ -d "$dir/node_modules/fzstd" ]; then
+    echo "setup: the npm packages of tools/node_check are already installed."
+    return 0
+  fi
+  echo "setup: installing the npm packages of tools/node_check (npm ci)"
+  (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
+}
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -25,6 +45,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#PACKAGES[@]} required Debian packages are already installed."
+  node_packages
   exit 0
 fi
 
@@ -40,4 +61,5 @@ echo "setup: installing ${#missing[@]} missing Debian package(s): ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+node_packages
 echo "setup: done."

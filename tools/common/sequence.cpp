@@ -10,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+#include "common/ros2_bag.hpp"
 #include "common/text_io.hpp"
 
 namespace dynamap::tools {
@@ -247,6 +248,41 @@ void level_on_floor(Sequence& seq) {
   seq.floor_levelled = true;
 }
 
+// depth.txt as candidate frames (stamps checked: finite, increasing, within the clock's span).
+std::vector<SequenceFrame> read_depth_list(const std::string& dir, const std::string& depth_list,
+                                           std::size_t* listed) {
+  const auto lines = read_lines(depth_list);
+  std::vector<SequenceFrame> frames;
+  double previous = -std::numeric_limits<double>::infinity();
+  double first_stamp = 0.0;
+  std::size_t first_line = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const TextLocation at{depth_list, i + 1};
+    const std::string body = strip_comment(lines[i]);
+    if (body.empty()) continue;
+    const auto f = split_ws(body);
+    if (f.size() < 2) fail_at(at, "expected 'timestamp filename', got '" + lines[i] + "'");
+    SequenceFrame frame;
+    frame.stamp = parse_double(f[0], at, "timestamp");
+    if (!std::isfinite(frame.stamp)) fail_at(at, "time stamp must be finite");
+    if (frame.stamp <= previous) fail_at(at, "time stamps must increase");
+    if (first_line == 0) {
+      first_line = i + 1;
+      first_stamp = frame.stamp;
+    }
+    if (frame.stamp - first_stamp > kMaxStampSeconds) {
+      fail_at(at, "time stamps span more than 9.2e9 s from the first one (line " +
+                      std::to_string(first_line) + "): beyond the replay's nanosecond clock");
+    }
+    previous = frame.stamp;
+    frame.stamp_text = f[0];
+    frame.depth_path = join_path(dir, f[1]);
+    ++*listed;
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
 }  // namespace
 
 bool fit_floor_plane(const std::vector<Eigen::Vector3d>& points, double max_height,
@@ -332,6 +368,7 @@ bool fit_floor_plane(const std::vector<Eigen::Vector3d>& points, double max_heig
 }
 
 Sequence read_sequence(const std::string& dir, const SequenceReadOptions& options) {
+  if (is_ros2_bag(dir)) return read_ros2_bag(dir, options);
   Sequence seq;
   seq.dir = dir;
   const bool bonn = options.poses == PoseConvention::kBonn;
@@ -351,7 +388,12 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
     for (auto& p : seq.poses) p.pose = bonn_marker_to_optical(p.pose);
     seq.camera.world_z_up = 1;
   }
+  finish_sequence(seq, read_depth_list(dir, depth_list, &seq.images_listed), options, depth_list);
+  return seq;
+}
 
+void finish_sequence(Sequence& seq, std::vector<SequenceFrame> candidates,
+                     const SequenceReadOptions& options, const std::string& what) {
   if (seq.camera.world_z_up == 0 && options.align_gravity && !seq.poses.empty()) {
     const Eigen::Vector3d down = seq.poses.front().pose.rotation * Eigen::Vector3d::UnitY();
     seq.world_alignment = Eigen::Quaterniond::FromTwoVectors(down, -Eigen::Vector3d::UnitZ());
@@ -361,34 +403,7 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
       p.pose.rotation = (seq.world_alignment * p.pose.rotation).normalized();
     }
   }
-
-  const auto lines = read_lines(depth_list);
-  double previous = -std::numeric_limits<double>::infinity();
-  double first_stamp = 0.0, last_stamp = 0.0;
-  std::size_t first_line = 0;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    const TextLocation at{depth_list, i + 1};
-    const std::string body = strip_comment(lines[i]);
-    if (body.empty()) continue;
-    const auto f = split_ws(body);
-    if (f.size() < 2) fail_at(at, "expected 'timestamp filename', got '" + lines[i] + "'");
-    SequenceFrame frame;
-    frame.stamp = parse_double(f[0], at, "timestamp");
-    if (!std::isfinite(frame.stamp)) fail_at(at, "time stamp must be finite");
-    if (frame.stamp <= previous) fail_at(at, "time stamps must increase");
-    if (first_line == 0) {
-      first_line = i + 1;
-      first_stamp = frame.stamp;
-    }
-    if (frame.stamp - first_stamp > kMaxStampSeconds) {
-      fail_at(at, "time stamps span more than 9.2e9 s from the first one (line " +
-                      std::to_string(first_line) + "): beyond the replay's nanosecond clock");
-    }
-    previous = frame.stamp;
-    last_stamp = frame.stamp;
-    frame.stamp_text = f[0];
-    frame.depth_path = join_path(dir, f[1]);
-    ++seq.images_listed;
+  for (SequenceFrame& frame : candidates) {
     if (!interpolate_pose(seq.poses, frame.stamp, options.max_pose_gap, &frame.pose)) {
       ++seq.images_without_pose;
       continue;
@@ -396,18 +411,18 @@ Sequence read_sequence(const std::string& dir, const SequenceReadOptions& option
     seq.frames.push_back(std::move(frame));
   }
   // Stamps in [0, kMaxStampSeconds] convert as they are; others relative to the first one.
-  if (first_line != 0 && (first_stamp < 0.0 || last_stamp > kMaxStampSeconds)) {
-    seq.stamp_origin = std::floor(first_stamp);
+  if (!candidates.empty() &&
+      (candidates.front().stamp < 0.0 || candidates.back().stamp > kMaxStampSeconds)) {
+    seq.stamp_origin = std::floor(candidates.front().stamp);
   }
   // Distinct stamps must stay distinct (and in order) in whole nanoseconds.
   for (std::size_t k = 1; k < seq.frames.size(); ++k) {
     if (seq.stamp_ns(seq.frames[k].stamp) <= seq.stamp_ns(seq.frames[k - 1].stamp)) {
-      throw ToolError(depth_list + ": time stamps " + seq.frames[k - 1].stamp_text + " and " +
+      throw ToolError(what + ": time stamps " + seq.frames[k - 1].stamp_text + " and " +
                       seq.frames[k].stamp_text + " are less than 1 ns apart");
     }
   }
   if (seq.gravity_aligned && options.level_floor) level_on_floor(seq);
-  return seq;
 }
 
 std::uint64_t Sequence::stamp_ns(double seconds) const {
@@ -421,6 +436,14 @@ std::uint64_t Sequence::stamp_ns(double seconds) const {
 }
 
 Image16 load_depth(const Sequence& seq, const SequenceFrame& frame) {
+  if (seq.source) {
+    Image16 img;
+    std::string message;
+    if (seq.source->load(seq, frame, &img, &message) != DepthProblem::kNone) {
+      throw ToolError(message);
+    }
+    return img;
+  }
   Image16 img = read_png16(frame.depth_path);
   if (img.width != seq.camera.width || img.height != seq.camera.height) {
     throw ToolError(frame.depth_path + ": image is " + std::to_string(img.width) + "x" +
@@ -446,6 +469,7 @@ const char* to_string(DepthProblem problem) {
 
 DepthProblem try_load_depth(const Sequence& seq, const SequenceFrame& frame, Image16* out,
                             std::string* message) {
+  if (seq.source) return seq.source->load(seq, frame, out, message);
   if (!file_exists(frame.depth_path)) {
     *message = frame.depth_path + ": listed in depth.txt but missing";
     return DepthProblem::kMissing;

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,8 +39,9 @@ struct StampedPose {
 struct SequenceFrame {
   double stamp = 0.0;
   std::string stamp_text;  ///< exactly as in depth.txt, for output with the same precision
-  std::string depth_path;  ///< SEQ joined with the file name of depth.txt
-  PoseD pose;              ///< interpolated, in the (possibly gravity-aligned) world frame
+  std::string depth_path;  ///< SEQ joined with the file name of depth.txt (a bag: bag, topic, time)
+  std::size_t source_index = 0;  ///< a bag's frames: the image message (Sequence::source)
+  PoseD pose;                    ///< interpolated, in the (possibly gravity-aligned) world frame
 };
 
 /// How the camera poses of a sequence are written.
@@ -47,6 +49,25 @@ enum class PoseConvention {
   kTum,   ///< groundtruth.txt: the optical frame (x right, y down, z forward) in the world (TUM)
   kBonn,  ///< Bonn RGB-D Dynamic as published: the motion-capture marker frame, y-up world
 };
+
+/// How a ROS 2 bag is read as a sequence (docs/tools.md, "ROS 2 bags"): topics by flag or found
+/// by type; empty / negative values mean "from the bag" (dynamap-convert's metadata record or the
+/// messages themselves).
+struct BagReadOptions {
+  std::string depth_topic;    ///< sensor_msgs/msg/Image, 16UC1 (units of 1/depth_factor m) or 32FC1
+  std::string info_topic;     ///< sensor_msgs/msg/CameraInfo
+  std::string pose_topic;     ///< PoseStamped, Odometry or TFMessage (/tf)
+  std::string camera_frame;   ///< the optical frame; default: the depth images' header.frame_id
+  std::string pose_child;     ///< the frame a PoseStamped gives the pose of; default: camera_frame
+  std::string world_frame;    ///< with /tf poses: default the root of the camera frame's tree
+  double depth_factor = 0.0;  ///< 16UC1 units per metre; 0: the bag's metadata, else 1000 (mm)
+  int world_z_up = -1;        ///< -1: the bag's metadata, else 0 (levelled on the floor)
+  /// Keep the pose messages' quaternions as written (not normalised): dynamap-convert writes
+  /// them back to groundtruth.txt unchanged.
+  bool raw_poses = false;
+};
+
+struct DepthSourceBase;
 
 struct SequenceReadOptions {
   /// Largest gap (s) between an image and the nearest pose on each side (docs/data_format.md:
@@ -56,6 +77,9 @@ struct SequenceReadOptions {
   /// it) and converts every pose with bonn_marker_to_optical(); the world is then z up, so
   /// camera.world_z_up is set to 1, and a missing camera.txt means the Bonn camera's intrinsics.
   PoseConvention poses = PoseConvention::kTum;
+  /// A ROS 2 bag (a folder with metadata.yaml or *.mcap files, or one .mcap file) is read with
+  /// these; read_sequence() recognises it by its path.
+  BagReadOptions bag;
   /// With world_z_up 0: rotate the world so that the first camera's "down" (+y of the optical
   /// frame) becomes -z. See Sequence::gravity_aligned.
   bool align_gravity = true;
@@ -91,6 +115,9 @@ struct Sequence {
   bool floor_levelled = false;
   std::size_t floor_points = 0;
   std::vector<std::string> warnings;  ///< e.g. unknown camera.txt keys (ignored)
+  /// Where the depth images come from when they are not PNG files (a ROS 2 bag); null for a
+  /// folder. try_load_depth() and load_depth() go through it.
+  std::shared_ptr<DepthSourceBase> source;
   /// Seconds subtracted from depth.txt stamps before they become the pipeline's nanoseconds
   /// (stamp_ns): 0 when every stamp lies in [0, kMaxStampSeconds] (the stamps convert as they
   /// are), else the first stamp rounded down to a whole second. read_sequence() refuses a
@@ -147,6 +174,20 @@ Image16 load_depth(const Sequence& seq, const SequenceFrame& frame);
 /// Why a listed depth image could not be used (published datasets have such gaps).
 enum class DepthProblem { kNone, kMissing, kUnreadable, kWrongSize };
 const char* to_string(DepthProblem problem);
+
+/// A source of depth images other than PNG files (ROS 2 bags: common/ros2_bag.hpp).
+struct DepthSourceBase {
+  virtual ~DepthSourceBase() = default;
+  virtual DepthProblem load(const Sequence& seq, const SequenceFrame& frame, Image16* out,
+                            std::string* message) = 0;
+};
+
+/// The shared second half of reading a sequence (folder or bag): with seq.poses and seq.camera
+/// set, aligns the world (world_z_up 0), interpolates a pose for each candidate frame (those
+/// without one are counted in images_without_pose), sets stamp_origin and checks the
+/// nanosecond stamps (`what` names the source in errors), and levels the world on its floor.
+void finish_sequence(Sequence& seq, std::vector<SequenceFrame> candidates,
+                     const SequenceReadOptions& options, const std::string& what);
 
 /// load_depth() without the throw: kNone and the image in `out`, or the problem and a message
 /// naming the file in `message` (`out` is then unspecified). Missing: the file does not exist;

@@ -21,8 +21,10 @@
 #include <string>
 #include <vector>
 
+#include "common/foxglove.hpp"
 #include "common/obstacles.hpp"
 #include "common/png_io.hpp"
+#include "common/replay_hooks.hpp"
 #include "common/results.hpp"
 #include "common/sequence.hpp"
 #include "common/static_world.hpp"
@@ -51,6 +53,7 @@ struct Options {
   bool map_checks = true;    // map_frames.csv when the sequence has static_world.txt
   std::string static_model;  // --static-model FILE: holes of the final map against it
   PoseConvention poses = PoseConvention::kTum;
+  ReplayExtras extras;  // ROS 2 bags and the Foxglove output (common/replay_hooks.hpp)
 };
 
 // Exit status of a run that completed but skipped listed depth files (docs/tools.md).
@@ -86,7 +89,8 @@ void usage(std::ostream& os) {
         "--cpu-clock: time the stages with the thread's CPU clock instead of the wall clock\n"
         "  (for timing tables on a shared, loaded machine).\n"
         "Exit status: 0 every listed image with a pose was replayed, 3 completed but depth files\n"
-        "were skipped, 1 error, 2 usage.\n";
+        "were skipped, 1 error, 2 usage.\n"
+     << bag_options_usage();
 }
 
 bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
@@ -161,6 +165,8 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
         std::cerr << "dynamap-replay: --poses takes tum or bonn, not '" << p << "'\n";
         return false;
       }
+    } else if (bool bad = false; parse_replay_extra(argc, argv, i, o.extras, bad)) {
+      if (bad) return false;
     } else if (!a.empty() && a[0] == '-') {
       std::cerr << "dynamap-replay: unknown option '" << a << "'\n";
       usage(std::cerr);
@@ -307,6 +313,7 @@ void print_model_holes(const ModelHoleCounts& h, float max_depth) {
 int run(const Options& o) {
   SequenceReadOptions read_options;
   read_options.poses = o.poses;
+  read_options.bag = o.extras.bag;
   const Sequence seq = read_sequence(o.seq, read_options);
   if (seq.frames.empty()) throw ToolError(o.seq + ": no depth image has a pose; nothing to replay");
   for (const std::string& w : seq.warnings) std::cerr << "warning: " << w << "\n";
@@ -327,6 +334,7 @@ int run(const Options& o) {
   std::vector<ObstacleRecord> truth;
   const std::string truth_path = join_path(o.seq, "obstacles.txt");
   if (file_exists(truth_path)) truth = read_obstacles(truth_path);
+  const auto foxglove = make_foxglove_output(o.extras, seq, truth);
 
   std::vector<MapVoxel> model;  // read before the replay: a bad file fails at once
   if (!o.static_model.empty()) model = read_map_ply(o.static_model);
@@ -418,6 +426,7 @@ int run(const Options& o) {
         ps.dynamic_paths[ob.id].push_back(c.head<2>().cast<double>());
       }
     }
+    if (foxglove) foxglove->frame(sf, frame.stamp, depth, frame.T_map_camera, *pipeline, *out);
     write_detection_rows(detections, sf.stamp_text, pipeline->detections());
     for (std::size_t j = 0; j < out->num_predictions; ++j) {
       write_prediction_rows(preds, sf.stamp_text, out->predictions[j]);
@@ -448,6 +457,7 @@ int run(const Options& o) {
     }
   }
   if (!o.quiet) std::fprintf(stderr, "\n");
+  if (foxglove) foxglove->close();
   const double elapsed = wall_seconds() - t_start;
   if (process_ms.empty()) {
     throw ToolError(o.seq + ": none of the " + std::to_string(n) +
