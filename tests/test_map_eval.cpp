@@ -3,6 +3,8 @@
 // erased / free-through counting and its --static-model hole counting on hand-made maps.
 #include <gtest/gtest.h>
 
+#include "temp_dir.hpp"
+
 #include <stdlib.h>
 #include <unistd.h>
 
@@ -27,24 +29,7 @@ namespace fs = std::filesystem;
 using namespace dynamap;
 using namespace dynamap::tools;
 
-// A fresh directory under /tmp, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    char tmpl[] = "/tmp/dynamap_test_map_eval_XXXXXX";
-    const char* p = ::mkdtemp(tmpl);
-    if (p == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = p;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
+using dynamap::test::TempDir;
 
 void write_file(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);

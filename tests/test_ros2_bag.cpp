@@ -3,7 +3,9 @@
 // the same frames and poses), and damaged bags (truncated at every byte, a flipped CRC, an
 // unknown compression, a topic of the wrong type, an image whose step lies, a broken tf chain).
 #include <gtest/gtest.h>
+
 #include <unistd.h>
+#include "temp_dir.hpp"
 
 #include <cmath>
 #include <filesystem>
@@ -26,23 +28,7 @@ using namespace dynamap::tools;
 
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    char tmpl[] = "/tmp/dynamap_test_bag_XXXXXX";
-    const char* p = ::mkdtemp(tmpl);
-    if (p == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = p;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
+using dynamap::test::TempDir;
 
 std::string read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -1,6 +1,8 @@
 // Tests of the host tools (tools/): PNG and sequence I/O, the scene simulator and the evaluator.
 #include <gtest/gtest.h>
 
+#include "temp_dir.hpp"
+
 #include <cairo.h>
 #include <stdlib.h>
 #include <unistd.h>
@@ -34,25 +36,7 @@ using namespace dynamap::tools;
 
 namespace {
 
-// A fresh directory under /tmp, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    char tmpl[] = "/tmp/dynamap_test_tools_XXXXXX";
-    const char* p = ::mkdtemp(tmpl);
-    if (p == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = p;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
-  const std::string& str() const { return path_; }
-
- private:
-  std::string path_;
-};
+using dynamap::test::TempDir;
 
 void write_file(const std::string& path, const std::string& text) {
   std::ofstream out(path);
