@@ -20,13 +20,14 @@ echo "== simulating scene '$SCENE' (640x480 depth at 30 Hz, TUM layout) =="
 echo "== running the pipeline =="
 "$BIN/dynamap-replay" "$OUT/$SCENE" --out "$OUT/${SCENE}_out" --picture-every 60
 echo "== evaluating against the ground truth =="
-"$BIN/dynamap-eval" "$OUT/$SCENE" "$OUT/${SCENE}_out" --picture
+"$BIN/dynamap-eval" "$OUT/$SCENE" "$OUT/${SCENE}_out" --map --picture
 echo "== drawing the results on the depth images =="
 "$BIN/dynamap-overlay" "$OUT/$SCENE" "$OUT/${SCENE}_out" --every 60 --quiet
 echo
 echo "pictures:"
 echo "  $OUT/${SCENE}_out/topview.png        final map, tracks, predictions"
 echo "  $OUT/${SCENE}_out/eval_topview.png   tracked vs true paths"
+echo "  $OUT/${SCENE}_out/map_topview.png    the map against the true world: missing static (red), left-over walkers (orange)"
 echo "  $OUT/${SCENE}_out/frames/            one top view every 60 frames"
 echo "  $OUT/${SCENE}_out/overlay/           tracks on the depth images: contact_sheet.png, one frame every 60"
 echo "  $OUT/$SCENE/scene_topview.png        the simulated scene"
