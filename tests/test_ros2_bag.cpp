@@ -30,6 +30,19 @@ namespace {
 
 using dynamap::test::TempDir;
 
+/// The rest of a sensor_msgs/CameraInfo after its header: 6 x 8 px, plumb_bob without
+/// distortion, K with f = 10 px and centre (4, 3), R, P and the binning and ROI zero.
+void write_camera_info_body(cdr::Writer& c) {
+  c.write<std::uint32_t>(6);
+  c.write<std::uint32_t>(8);
+  c.string("plumb_bob");
+  c.write<std::uint32_t>(0);
+  for (double v : {10., 0., 4., 0., 10., 3., 0., 0., 1.}) c.write<double>(v);
+  for (int k = 0; k < 21; ++k) c.write<double>(0.0);
+  for (int k = 0; k < 6; ++k) c.write<std::uint32_t>(0);
+  c.write<std::uint8_t>(0);
+}
+
 std::string read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
@@ -278,14 +291,7 @@ TEST(Ros2Bag, WrongTopicTypeAndLyingImagesAreNamed) {
     c.write<std::int32_t>(100);
     c.write<std::uint32_t>(0);
     c.string("cam");
-    c.write<std::uint32_t>(6);
-    c.write<std::uint32_t>(8);
-    c.string("plumb_bob");
-    c.write<std::uint32_t>(0);
-    for (double v : {10., 0., 4., 0., 10., 3., 0., 0., 1.}) c.write<double>(v);
-    for (int k = 0; k < 21; ++k) c.write<double>(0.0);
-    for (int k = 0; k < 6; ++k) c.write<std::uint32_t>(0);
-    c.write<std::uint8_t>(0);
+    write_camera_info_body(c);
     w.write(info, 0, 0, c.data().data(), c.data().size());
   }
   SequenceReadOptions z;
@@ -370,14 +376,7 @@ void write_odometry_bag(const std::string& path, bool with_static, bool tf_only 
     w.write(img, s * 1000000000ull, 0, m.data().data(), m.data().size());
     cdr::Writer c;
     stamp(c, s, "cam_optical");
-    c.write<std::uint32_t>(6);
-    c.write<std::uint32_t>(8);
-    c.string("plumb_bob");
-    c.write<std::uint32_t>(0);
-    for (double v : {10., 0., 4., 0., 10., 3., 0., 0., 1.}) c.write<double>(v);
-    for (int k = 0; k < 21; ++k) c.write<double>(0.0);
-    for (int k = 0; k < 6; ++k) c.write<std::uint32_t>(0);
-    c.write<std::uint8_t>(0);
+    write_camera_info_body(c);
     w.write(info, s * 1000000000ull, 0, c.data().data(), c.data().size());
   }
 }
