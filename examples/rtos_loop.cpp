@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <memory>
 
-#include "dynamap/pipeline.hpp"
+#include "dynamap/dynamap.hpp"
 #include "dynamap/platform/worker_thread.hpp"
 #include "dynamap/testing/worst_case.hpp"
 

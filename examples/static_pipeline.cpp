@@ -4,7 +4,7 @@
 // Build: part of the default build (examples/). Run: ./build/<preset>/examples/static_pipeline
 #include <cstdio>
 
-#include "dynamap/pipeline.hpp"
+#include "dynamap/dynamap.hpp"
 #include "dynamap/testing/worst_case.hpp"
 
 namespace {

@@ -17,7 +17,7 @@
 #include <memory>
 #include <vector>
 
-#include "dynamap/pipeline.hpp"
+#include "dynamap/pipeline/pipeline.hpp"
 #include "fuzz_input.hpp"
 
 namespace {

@@ -3,7 +3,7 @@
 
 #include <cerrno>
 
-#include "dynamap/status.hpp"
+#include "dynamap/core/status.hpp"
 
 namespace dynamap::platform::detail {
 

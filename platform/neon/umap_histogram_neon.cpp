@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "dynamap/detail/umap_histogram.hpp"
+#include "dynamap/detect/detail/umap_histogram.hpp"
 
 namespace dynamap::detail {
 

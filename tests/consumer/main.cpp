@@ -3,11 +3,11 @@
 #include <cstdio>
 #include <memory>
 
-#include <dynamap/latest_value.hpp>
+#include <dynamap/core/latest_value.hpp>
+#include <dynamap/core/spsc_ring.hpp>
+#include <dynamap/core/status.hpp>
+#include <dynamap/pipeline/stage_timing.hpp>
 #include <dynamap/platform/clock.hpp>
-#include <dynamap/spsc_ring.hpp>
-#include <dynamap/stage_timing.hpp>
-#include <dynamap/status.hpp>
 #include <dynamap/testing/worst_case.hpp>
 
 int main() {

@@ -1,7 +1,8 @@
 // The soak: a long mixed stream of simulated, noisy and adversarial frames pushed through the
 // threaded Runner, with the memory, timing and counter figures taken every `checkpoint` frames.
-// Shared by bench/bench_soak.cpp (100,000 frames, release) and tests/test_soak.cpp (a short
-// run). Host-side test code: it allocates and reads /proc, the library under test does neither.
+// Shared by bench/pipeline/bench_soak.cpp (100,000 frames, release) and
+// tests/pipeline/test_soak.cpp (a short run). Host-side test code: it allocates and reads /proc,
+// the library under test does neither.
 #pragma once
 
 #include <algorithm>
@@ -19,7 +20,7 @@
 
 #include <unistd.h>
 
-#include "dynamap/runner.hpp"
+#include "dynamap/pipeline/runner.hpp"
 #include "dynamap/testing/worst_case.hpp"
 #include "world_scene.hpp"
 

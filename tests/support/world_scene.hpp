@@ -11,7 +11,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "dynamap/types.hpp"
+#include "dynamap/core/types.hpp"
 
 namespace dynamap::test {
 

@@ -17,7 +17,7 @@
 #include "common/png_io.hpp"
 #include "common/replay_hooks.hpp"
 #include "common/sequence.hpp"
-#include "dynamap/pipeline.hpp"
+#include "dynamap/pipeline/pipeline.hpp"
 
 namespace dynamap::tools {
 

@@ -7,7 +7,7 @@
 #include <unordered_set>
 
 #include "common/text_io.hpp"
-#include "dynamap/occupancy_map.hpp"
+#include "dynamap/map/occupancy_map.hpp"
 
 namespace dynamap::tools {
 namespace {

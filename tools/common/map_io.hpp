@@ -16,7 +16,7 @@
 #include <Eigen/Core>
 
 namespace dynamap {
-class OccupancyMap;  // dynamap/occupancy_map.hpp; only count_model_holes() takes one
+class OccupancyMap;  // dynamap/map/occupancy_map.hpp; only count_model_holes() takes one
 }  // namespace dynamap
 
 namespace dynamap::tools {

@@ -19,7 +19,7 @@
 #include <Eigen/Core>
 
 #include "common/static_world.hpp"
-#include "dynamap/occupancy_map.hpp"
+#include "dynamap/map/occupancy_map.hpp"
 
 namespace dynamap::tools {
 

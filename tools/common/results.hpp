@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-#include "dynamap/prediction.hpp"
+#include "dynamap/predict/prediction.hpp"
 
 namespace dynamap::tools {
 

@@ -20,7 +20,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "dynamap/occupancy_map.hpp"
+#include "dynamap/map/occupancy_map.hpp"
 
 namespace dynamap::diag {
 

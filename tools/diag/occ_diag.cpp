@@ -15,7 +15,7 @@
 #include "common/png_io.hpp"
 #include "common/sequence.hpp"
 #include "common/text_io.hpp"
-#include "dynamap/pipeline_config.hpp"
+#include "dynamap/pipeline/pipeline_config.hpp"
 #include "params.hpp"
 
 namespace dynamap::tools {

@@ -20,7 +20,7 @@
 #include "common/sequence.hpp"
 #include "common/static_world.hpp"
 #include "common/text_io.hpp"
-#include "dynamap/pipeline.hpp"
+#include "dynamap/pipeline/pipeline.hpp"
 #include "params.hpp"
 
 namespace dynamap::tools {

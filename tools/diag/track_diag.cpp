@@ -15,7 +15,7 @@
 #include "common/png_io.hpp"
 #include "common/sequence.hpp"
 #include "common/text_io.hpp"
-#include "dynamap/pipeline.hpp"
+#include "dynamap/pipeline/pipeline.hpp"
 #include "params.hpp"
 
 namespace dynamap::tools {

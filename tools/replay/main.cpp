@@ -30,7 +30,7 @@
 #include "common/static_world.hpp"
 #include "common/text_io.hpp"
 #include "common/topview.hpp"
-#include "dynamap/pipeline.hpp"
+#include "dynamap/pipeline/pipeline.hpp"
 #include "dynamap/platform/clock.hpp"
 #include "map_output.hpp"
 #include "params.hpp"

@@ -12,9 +12,9 @@
 #include "common/map_io.hpp"
 #include "common/map_truth.hpp"
 #include "common/static_world.hpp"
-#include "dynamap/occupancy_map.hpp"
-#include "dynamap/pipeline_config.hpp"
-#include "dynamap/types.hpp"
+#include "dynamap/core/types.hpp"
+#include "dynamap/map/occupancy_map.hpp"
+#include "dynamap/pipeline/pipeline_config.hpp"
 
 namespace dynamap::tools {
 

@@ -13,7 +13,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "common/text_io.hpp"
-#include "dynamap/parameters.hpp"
+#include "dynamap/pipeline/parameters.hpp"
 
 namespace dynamap::tools {
 namespace {
@@ -236,7 +236,8 @@ std::string parameters_markdown() {
   os << "# Parameters\n"
      << "\n"
      << "Every field of `PipelineConfig`, generated from the library's parameter table\n"
-     << "(`include/dynamap/parameters.hpp`, `src/parameters.cpp`) by `dynamap-replay "
+     << "(`include/dynamap/pipeline/parameters.hpp`, `src/pipeline/parameters.cpp`) by "
+        "`dynamap-replay "
         "--params-markdown`;\n"
      << "`test_replay` fails when this page and the table differ. Regenerate it with\n"
      << "\n"

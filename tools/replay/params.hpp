@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "common/sequence.hpp"
-#include "dynamap/pipeline.hpp"
-#include "dynamap/pipeline_config.hpp"
-#include "dynamap/types.hpp"
+#include "dynamap/core/types.hpp"
+#include "dynamap/pipeline/pipeline.hpp"
+#include "dynamap/pipeline/pipeline_config.hpp"
 
 namespace dynamap::tools {
 

@@ -3,7 +3,7 @@
 // process lacks the privilege); none throws.
 #pragma once
 
-#include "dynamap/status.hpp"
+#include "dynamap/core/status.hpp"
 
 namespace dynamap::platform {
 

@@ -9,8 +9,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "dynamap/core/status.hpp"
 #include "dynamap/platform/worker_thread.hpp"
-#include "dynamap/status.hpp"
 
 namespace dynamap::platform {
 

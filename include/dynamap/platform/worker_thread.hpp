@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "dynamap/status.hpp"
+#include "dynamap/core/status.hpp"
 
 namespace dynamap::platform {
 

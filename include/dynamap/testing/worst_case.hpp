@@ -7,8 +7,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "dynamap/pipeline_config.hpp"
-#include "dynamap/types.hpp"
+#include "dynamap/core/types.hpp"
+#include "dynamap/pipeline/pipeline_config.hpp"
 
 namespace dynamap {
 

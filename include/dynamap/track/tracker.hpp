@@ -1,0 +1,276 @@
+// Tracker: fixed-capacity multi-obstacle tracker. Per frame it associates detections with tracks
+// in the top view, runs a motion filter per track (by default an IMM of constant velocity and
+// coordinated turn), fixes the obstacle size once it has been fully in view, corrects the
+// near-surface bias of depth boxes, and labels each track static or dynamic with the continuity
+// filter and a voting window. No heap, no exceptions.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "dynamap/core/constants.hpp"
+#include "dynamap/core/detection.hpp"
+#include "dynamap/core/status.hpp"
+#include "dynamap/core/types.hpp"
+#include "dynamap/track/continuity_filter.hpp"
+#include "dynamap/track/detail/history_ring.hpp"
+#include "dynamap/track/kalman_filter.hpp"
+
+namespace dynamap {
+
+/// Longest state history per track (k + 1 states for the continuity filter).
+inline constexpr std::size_t kMaxTrackHistory = 32;
+
+/// Tracker parameters. Defaults: original association thresholds (overlap 0.3, centre gate
+/// 0.22 m), history k = 20, cleaning horizon f = 50; coasting, k' and the margin are ours.
+struct TrackerConfig {
+  KalmanConfig kalman{};
+  ContinuityConfig continuity{};
+  float overlap_threshold = 0.3f;     ///< top-view A_overlap / A_detection for a candidate pair
+  float centre_gate = 0.22f;          ///< or a top-view centre distance below this (m)
+  std::size_t max_missed_frames = 3;  ///< frames a track coasts on its prediction, then dropped
+  /// Seconds a track may go unmeasured, whatever the frame count: at the next frame later than
+  /// this after its last measurement it is dropped before it is predicted, so a time gap in
+  /// the input (a stalled sensor) ends coasting instead of extrapolating across it. At 30 Hz,
+  /// max_missed_frames ends coasting long before this.
+  float max_coast_time = 1.0f;
+  std::size_t history_length = 20;      ///< k: the state history holds k + 1 positions
+  std::size_t box_history_length = 50;  ///< f: past boxes kept for dynamic-region cleaning
+  std::size_t size_fix_frames = 10;     ///< k': frames fully in view before the size is frozen
+  int image_margin = 5;                 ///< pixels the image box must stay away from the border
+  /// Only detections whose nearest surface is at most this far (m) count towards size fixing:
+  /// far away the depth noise and lost edge pixels make boxes too small.
+  float size_fix_max_depth = 5.0f;
+  /// Stereo depth noise grows with depth squared: beyond this depth (m) the Kalman measurement
+  /// noise is scaled by (near_depth / noise_reference_depth)^4, so far, jittering boxes (a wall
+  /// piece 7 m away) do not gain a speed. 0 disables the scaling.
+  float noise_reference_depth = 3.0f;
+  /// Shift depth boxes away from the camera by half their missing depth (docs/tracker.md).
+  bool correct_near_surface_bias = true;
+  /// Rigid-motion test of the vote: over the position history, the detection box's top-view
+  /// extent may change by at most this fraction of its centre's displacement, or the frame votes
+  /// static. A wall piece whose visible part slides (one end fixed, the other cut by the image
+  /// border or an occluder) grows or shrinks by twice its centre's motion; an object moves both
+  /// edges together. Judged on the detection boxes themselves (before the bias correction).
+  /// Negative disables the test.
+  float max_extent_change_ratio = 1.0f;
+  /// The round-footprint bias correction is applied only when the box's longer horizontal side
+  /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
+  /// visible face's centre is kept. 0 disables the limit.
+  float max_round_footprint = 1.0f;
+  /// Early label (0 disables): a track is labelled dynamic as soon as its first `early_votes`
+  /// votes were all dynamic, cast on consecutive frames (no missed frame in between), instead of
+  /// waiting for T_c of c votes. A walker in view is detected every frame and votes dynamic from
+  /// its first vote; the wall pieces and people standing that pass a vote flicker in and out
+  /// and start with short runs of dynamic votes, so the default keeps a margin over the longest
+  /// run measured (docs/tracker.md, "Static or dynamic"). The label is provisional: a static vote
+  /// or a missed frame before the T_c rule holds withdraws it. A track that was dynamic before (a
+  /// walker after a pause) may be re-labelled the same way by `early_votes` consecutive dynamic
+  /// votes.
+  std::size_t early_votes = 4;
+  /// Label hold (0 disables): a track labelled dynamic on at least `hold_min_dynamic_frames`
+  /// frames whose label goes while it is slower than continuity.min_speed (it stopped) keeps the
+  /// label for up to this many measured frames, through the restart until the votes take over.
+  /// A person who stops (at a door, in a queue) is still a person: without the hold the label
+  /// goes with the motion and comes back only after new votes once they walk on, and meanwhile
+  /// the planner sees a static obstacle and the map takes the person in as static. A track
+  /// whose votes turn static while it still moves fast (a sliding wall piece) gets no hold.
+  std::size_t dynamic_hold_frames = 90;
+  std::size_t hold_min_dynamic_frames = 30;  ///< frames labelled dynamic before a hold applies
+  /// While the history is shorter than the n + 2 states the continuity filter needs, vote with
+  /// displacements this many frames apart once 2 * early_displacement_frames + 1 states exist
+  /// (0: no votes before n + 2 states). At 1 m/s, 3 frames are 10 cm, six times the
+  /// detector's 1.6 cm centre noise, so the direction of each displacement is still clear.
+  std::size_t early_displacement_frames = 3;
+  /// After the size is frozen, keep averaging k' in-view frames at a time and raise the frozen
+  /// size to a larger window mean. A nearer occluder (a pillar the walker steps out from behind)
+  /// only ever shrinks the visible extent, and the "fully in view" test sees the image border
+  /// only, so a size frozen during a partial occlusion was too small for good, and so was the
+  /// bias correction of the centre. The size never shrinks once frozen.
+  bool size_fix_growth = true;
+  /// Measure each detection from the detector's own box (`Detection::raw_box`, the mean surface
+  /// points of this depth image) instead of the box refined against the occupancy map. The map
+  /// confirms a voxel only after repeated hits (two at prob_hit 0.7, prob_occupied 0.8) and
+  /// quantises to its resolution, so the support of a moving surface lags at its leading edge
+  /// and advances in voxel steps, so the refined box's centre saw-tooths (docs/tracker.md,
+  /// "Measurement"). No choice to validate: both are boxes of the same detection.
+  bool measure_raw_box = true;
+  /// Keep a step of the frozen size from reading as motion. The near-surface bias correction
+  /// moves a detection's centre away from the camera by half the depth the box misses, which
+  /// depends on the estimated full size; when the size is frozen or raised (`size_fix_growth`)
+  /// every corrected centre from then on moves by up to half the step although the obstacle did
+  /// not, and the filter reads the jump as motion. With this on, the first detection corrected with
+  /// the new size is also corrected with the previous one, and the filter's position, the position
+  /// history and the last measured position move by the difference before the update
+  /// (docs/tracker.md, "Measurement"). The per-frame footprint of a track whose size is not frozen
+  /// yet is left alone: it is detection noise, not a re-estimate. No value to validate.
+  bool compensate_size_steps = true;
+  /// Keep the footprint of a detection cut by the image border from reading as motion while the
+  /// size is not frozen: a person entering the view grows from a sliver to a full body within a
+  /// few frames, and the bias correction pushes the centre back along the ray by half of that
+  /// growth, which the filter reads as motion away from the camera. With this on, a cut
+  /// detection whose footprint differs from the last frame's is handled like a size step
+  /// (docs/tracker.md, "Measurement"). No value to validate.
+  bool compensate_cut_footprint = true;
+  /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
+  /// observed free (Detection::ever_free >= ever_free_share) on this many measured frames in a
+  /// row is labelled dynamic, whatever its votes: it has moved into empty space. Its size must
+  /// pass the continuity filter's size check. A frame without that evidence ends the run and
+  /// the label falls back to the votes (docs/tracker.md, "Static or dynamic").
+  std::size_t ever_free_frames = 3;
+  float ever_free_share = 0.5f;  ///< share of the detection's surface cells (0, 1]
+  /// A detection most of whose voxels the map has held occupied for a long time
+  /// (Detection::static_share above this) lies on static structure: its apparent motion is the
+  /// camera's view sliding along it, and it votes static (1: off; docs/tracker.md).
+  float max_static_share = 0.5f;
+
+  /// kInvalidArgument for out-of-range values (nested configs included).
+  Status validate() const noexcept;
+};
+
+/// One tracked obstacle as the tracker reports it (map frame).
+struct TrackedObstacle {
+  std::uint32_t id = 0;                                ///< unique within a run, never reused
+  Box3 box;                                            ///< filtered centre, estimated full size
+  Eigen::Vector3f velocity = Eigen::Vector3f::Zero();  ///< (vx, vy, 0) from the Kalman filter
+  float speed = 0.f;                                   ///< |velocity| (m/s)
+  float continuity = 0.f;                              ///< last C_con (0 until computable)
+  bool dynamic = false;                                ///< label after voting
+  bool size_fixed = false;                             ///< size frozen after k' frames in view
+  /// The last matched detection touched the image border (within image_margin): the obstacle
+  /// is cut by the view (near the camera or at the edge), its box holds the visible part only
+  /// and its size is not fixed from it. Kept while the track coasts.
+  bool cut = false;
+  std::uint32_t dynamic_votes = 0;   ///< dynamic votes in the current window
+  std::uint32_t votes = 0;           ///< votes in the window (<= c)
+  std::uint32_t dynamic_streak = 0;  ///< dynamic votes in a row (early label)
+  std::uint32_t age = 0;             ///< frames since the track started
+  std::uint32_t hits = 0;            ///< frames with a matched detection
+  std::uint32_t missed_frames = 0;   ///< consecutive frames without a match
+  Stamp last_seen = 0;               ///< stamp of the last matched detection
+  /// Index of this frame's detection the track was updated with, -1 when it coasted: lets a
+  /// caller (diagnosis tools) relate the estimate to the measurement behind it.
+  std::int32_t detection = -1;
+};
+
+class Tracker {
+ public:
+  Tracker() noexcept;
+  /// Validates and applies `config` for depth images of image_width x image_height pixels (the
+  /// "fully in view" test), dropping all tracks. Bad config, or an image too small for
+  /// config.image_margin: kInvalidArgument, no change.
+  [[nodiscard]] Status init(const TrackerConfig& config, int image_width,
+                            int image_height) noexcept;
+  /// One frame: `count` detections (map frame) seen from camera pose T_map_camera at `stamp`.
+  /// Errors (nothing changes): kNullData (dets null with count > 0), kCapacityExceeded
+  /// (count > kMaxDetections), kNonFinite / kNonUnitQuaternion (pose), kNonFinite /
+  /// kInvalidArgument (NaN or inverted box), kTimeNotIncreasing (stamp <= previous stamp).
+  [[nodiscard]] Status update(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                              Stamp stamp) noexcept;
+  /// Drops all tracks and the stamp; ids keep counting up (never reused within a run).
+  void clear() noexcept;
+
+  /// Current obstacles, compact: entries [0, size()) of obstacle_array().
+  std::size_t size() const noexcept { return output_count_; }
+  const std::array<TrackedObstacle, kMaxTracks>& obstacle_array() const noexcept { return output_; }
+  const TrackedObstacle& obstacle(std::size_t i) const noexcept { return output_[i]; }
+
+  /// Past boxes of obstacle i (measured frames only), age 0 = newest, up to f of them.
+  std::size_t box_history_size(std::size_t i) const noexcept;
+  const Box3& past_box(std::size_t i, std::size_t age) const noexcept;
+
+  /// Detections refused because every track slot was taken (cumulative).
+  std::uint64_t refused_tracks() const noexcept { return refused_tracks_; }
+  /// Tracks dropped after coasting too long (cumulative).
+  std::uint64_t dropped_tracks() const noexcept { return dropped_tracks_; }
+  const TrackerConfig& config() const noexcept { return config_; }
+
+ private:
+  struct Track {
+    TrackedObstacle out;
+    TrackFilter kf;
+    DynamicVoter voter;
+    HistoryRing<Eigen::Vector2f, kMaxTrackHistory> positions;  // measured, bias-corrected
+    HistoryRing<Box3, kMaxBoxHistory> boxes;
+    HistoryRing<Eigen::Vector4f, kMaxTrackHistory> edges;  // detection boxes' top-view min, max
+    Eigen::Vector2f last_measured = Eigen::Vector2f::Zero();
+    Stamp last_measured_stamp = 0;
+    float z_center = 0.f;
+    Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
+    Eigen::Vector3f corrected_with = Eigen::Vector3f::Zero();  // size behind the last correction
+    Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
+    std::size_t in_view_frames = 0;
+    std::size_t dynamic_streak = 0;    // consecutive dynamic votes on consecutive frames
+    std::size_t ever_free_streak = 0;  // measured frames in a row in ever-free space
+    bool on_static = false;            // last detection lay on long-occupied voxels
+    bool every_vote_dynamic = true;    // no static vote and no missed frame since the first vote
+    bool was_dynamic = false;          // labelled dynamic at some time
+    std::size_t dynamic_frames = 0;    // measured frames labelled dynamic (saturates)
+    std::size_t held_frames = 0;       // measured frames the label has been held
+    bool holding = false;              // a hold started (the label went while slow)
+    bool label = false;
+    bool active = false;
+  };
+  struct Measurement {  // a detection after bias correction
+    Eigen::Vector3f center;
+    Eigen::Vector3f size;      // estimated full size
+    Eigen::Vector3f own_size;  // full size estimated from this detection alone (not the fixed one)
+    Eigen::Vector3f raw_size;  // the detection box's own size
+    Eigen::Vector4f edges;     // the detection box's top-view min x, min y, max x, max y
+    bool in_view;
+    bool near_enough;  // near enough for size fixing
+  };
+  struct Pair {  // a candidate (detection, track) association
+    float distance;
+    std::uint8_t det;
+    std::uint8_t slot;
+  };
+  struct FrameScratch {  // one update's working memory (kept here: no stack arrays of this size)
+    std::array<Measurement, kMaxDetections> meas;
+    std::array<Pair, kMaxDetections * kMaxTracks> pairs;
+    std::size_t pair_count = 0;
+    std::array<bool, kMaxDetections> det_used{};
+    std::array<bool, kMaxTracks> track_used{};
+  };
+  // The steps of update(): input checks, prediction, candidate pairs, coasting, new tracks.
+  Status check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                     Stamp stamp) const noexcept;
+  void predict_tracks(Stamp stamp) noexcept;
+  void associate(std::size_t count) noexcept;
+  void coast_unmatched() noexcept;
+  void start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept;
+  Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
+                      const Eigen::Vector3f* fixed_size) const noexcept;
+  bool fully_in_view(const ImageBox& b) const noexcept;
+  bool moves_rigidly(const Track& t) const noexcept;
+  void start_track(Track& t, const Measurement& m, Stamp stamp) noexcept;
+  void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
+                     Stamp stamp) noexcept;
+  // The steps of correct_track after the filter update: size estimate (freeze, growth) and
+  // the continuity filter's vote with the label.
+  void update_size(Track& t, const Measurement& m) noexcept;
+  void vote(Track& t) noexcept;
+  void hold_label(Track& t) const noexcept;  ///< dynamic_hold_frames after the vote
+  void count_ever_free(Track& t, const Detection& det) noexcept;
+  bool ever_free_label(const Track& t) const noexcept;
+  void publish() noexcept;
+
+  TrackerConfig config_{};
+  int image_width_ = 0;  ///< of the depth images, from init
+  int image_height_ = 0;
+  std::array<Track, kMaxTracks> tracks_{};
+  std::array<TrackedObstacle, kMaxTracks> output_{};
+  std::array<std::uint8_t, kMaxTracks> output_slot_{};
+  FrameScratch frame_{};
+  std::size_t output_count_ = 0;
+  std::uint32_t next_id_ = 1;
+  Stamp last_stamp_ = 0;
+  bool has_stamp_ = false;
+  std::uint64_t refused_tracks_ = 0;
+  std::uint64_t dropped_tracks_ = 0;
+};
+
+}  // namespace dynamap

@@ -1,0 +1,176 @@
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "dynamap/pipeline/parameters.hpp"
+#include "dynamap/pipeline/pipeline_config.hpp"
+
+namespace dynamap {
+namespace {
+
+// Small helpers so each check reads as one line: field name, condition, reason.
+struct Checker {
+  ConfigError error{};
+  bool failed() const noexcept { return error.status != Status::kOk; }
+  void require(bool good, const char* field, const char* reason) noexcept {
+    if (!failed() && !good) error = ConfigError{Status::kInvalidArgument, field, reason};
+  }
+};
+
+/// Saturating product (worst-case figures of absurd configurations must not wrap).
+std::size_t mul(std::size_t a, std::size_t b) noexcept {
+  if (a != 0 && b > std::numeric_limits<std::size_t>::max() / a) {
+    return std::numeric_limits<std::size_t>::max();
+  }
+  return a * b;
+}
+
+/// Saturating sum.
+std::size_t add(std::size_t a, std::size_t b) noexcept {
+  return a > std::numeric_limits<std::size_t>::max() - b ? std::numeric_limits<std::size_t>::max()
+                                                         : a + b;
+}
+
+/// Non-negative finite float to a count, saturating (NaN and negatives give 0).
+std::size_t count_of(float x) noexcept {
+  if (!(x > 0.f)) return 0;
+  if (!(x < 1e18f)) return std::numeric_limits<std::size_t>::max();
+  return static_cast<std::size_t>(std::ceil(x));
+}
+
+}  // namespace
+
+WorstCaseWork worst_case_work(const PipelineConfig& c) noexcept {
+  WorstCaseWork w;
+  const OccupancyMapConfig& m = c.map;
+  // Sampled pixels at the finest stride the pipeline may use (its configured one).
+  const auto sampled = [&](int size) -> std::size_t {
+    const int margin = std::max(m.pixel_margin, 0);
+    const int stride = std::max(m.pixel_stride, 1);
+    return size > 2 * margin ? static_cast<std::size_t>((size - 2 * margin + stride - 1) / stride)
+                             : 0;
+  };
+  w.rays = std::min(mul(sampled(c.camera.width), sampled(c.camera.height)), m.max_rays_per_frame);
+  // A ray stays in the local region around the camera: at most the region's voxel span per axis.
+  std::size_t ray_voxels = 1;
+  for (int a = 0; a < 3; ++a) {
+    ray_voxels = add(ray_voxels, mul(2, count_of(m.local_half_extent[a] / m.resolution)));
+  }
+  w.voxel_visits = std::min(mul(w.rays, ray_voxels), m.max_voxel_visits_per_frame);
+  w.detections = c.detector.max_detections;
+  w.refiner_voxels = mul(mul(w.detections, 2), c.refiner.max_voxels_per_box);
+  w.tracks = kMaxTracks;
+  w.cleaner_voxels = c.cleaner.max_voxels_per_frame;
+  const PathLibraryConfig& paths = c.predictor.paths;
+  w.path_samples = mul(mul(w.tracks, paths.num_paths + 1), kMaxPathSamples);
+  const float horizon =
+      std::max(paths.horizon_distance, paths.slow_speed * paths.slow_horizon_time);
+  const std::size_t per_path =
+      add(count_of(3.f * horizon / m.resolution), 3 * (kMaxPathSamples - 1));
+  const ClearanceConfig& cl = c.predictor.clearance;
+  const std::size_t per_track_path = mul(mul(cl.max_lines, cl.height_levels), per_path);
+  const std::size_t sweeps = c.predictor.unknown_weight < 1.f ? 2 : 1;
+  const std::size_t markov = mul(mul(w.tracks, paths.num_paths), mul(sweeps, per_track_path));
+  const std::size_t linear = c.run_linear_baseline ? mul(w.tracks, per_track_path) : 0;
+  w.predictor_voxel_steps = add(markov, linear);
+  return w;
+}
+
+namespace {
+
+// Relations between fields of the map and the detector (each field's own range is the table's).
+void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
+  const OccupancyMapConfig& m = c.map;
+  k.require(m.prob_min < m.prob_miss, "map.prob_min", "must be < map.prob_miss");
+  k.require(m.prob_hit < m.prob_max, "map.prob_max", "must be > map.prob_hit");
+  k.require(m.prob_min <= m.prob_occupied && m.prob_occupied < m.prob_max, "map.prob_occupied",
+            "must be in [map.prob_min, map.prob_max)");
+  k.require(m.max_depth > m.min_depth, "map.max_depth", "must be > map.min_depth");
+  k.require(m.no_return_free_depth <= m.max_depth, "map.no_return_free_depth",
+            "must be <= map.max_depth");
+  k.require((m.local_half_extent.array() <= kMaxLocalHalfExtentVoxels * m.resolution).all(),
+            "map.local_half_extent",
+            "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "
+            "(bounds the length of every ray)");
+  k.require(m.carve_tiles == 0 || OccupancyMap::local_grid_cells(m) <= kMaxTileCells,
+            "map.local_half_extent",
+            "too large for tiled carving: the local block grid must have at most kMaxTileCells "
+            "(4096) cells when map.carve_tiles > 0");
+  k.require(m.threads == 1 || m.carve_tiles > 0, "map.threads",
+            "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
+  k.require(m.helper_first_cpu + m.threads - 2 <= kMaxCpuIndex, "map.helper_first_cpu",
+            "the last helper's CPU (helper_first_cpu + threads - 2) must be <= 1023");
+  k.require(c.detector.d_max > c.detector.d_min, "detector.d_max", "must be > detector.d_min");
+  k.require(!c.budgets.adaptive_stride || c.budgets.max_pixel_stride >= m.pixel_stride,
+            "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");
+}
+
+// Relations between fields of the tracker and the predictor.
+void check_tracker_relations(const PipelineConfig& c, Checker& k) noexcept {
+  const TrackerConfig& t = c.tracker;
+  const ContinuityConfig& cc = t.continuity;
+  k.require(cc.displacement_frames + 1 <= t.history_length,
+            "tracker.continuity.displacement_frames",
+            "must be <= tracker.history_length - 1 (the filter needs n + 2 states)");
+  k.require(cc.dynamic_votes <= cc.vote_window, "tracker.continuity.dynamic_votes",
+            "must be <= tracker.continuity.vote_window");
+  k.require(cc.static_votes < cc.dynamic_votes, "tracker.continuity.static_votes",
+            "must be < tracker.continuity.dynamic_votes");
+  k.require((cc.min_size.array() <= cc.max_size.array()).all(), "tracker.continuity.max_size",
+            "must be >= tracker.continuity.min_size on every axis");
+  k.require(t.early_votes <= cc.vote_window, "tracker.early_votes",
+            "must be <= tracker.continuity.vote_window");
+  k.require(t.early_displacement_frames < cc.displacement_frames,
+            "tracker.early_displacement_frames",
+            "must be < tracker.continuity.displacement_frames");
+  k.require(2 * t.image_margin < c.camera.width && 2 * t.image_margin < c.camera.height,
+            "tracker.image_margin", "must be < half of camera.width and of camera.height");
+  const DepthCheckConfig& d = c.predictor.depth_check;
+  k.require(d.max_depth > d.min_depth, "predictor.depth_check.max_depth",
+            "must be > predictor.depth_check.min_depth");
+}
+
+// Relations between fields of the far-field layer (far_field_layer.hpp).
+void check_far_field_relations(const PipelineConfig& c, Checker& k) noexcept {
+  const FarFieldConfig& f = c.far_field;
+  k.require(f.max_range > f.hit_min_range, "far_field.max_range",
+            "must be > far_field.hit_min_range");
+  k.require(f.max_range / f.cell_size <= static_cast<float>(kFarFieldMaxBins) &&
+                2.f * f.max_range / f.cell_size <= static_cast<float>(kFarFieldCellsPerSide) - 2.f,
+            "far_field.max_range",
+            "must be <= (kFarFieldCellsPerSide / 2 - 1) x far_field.cell_size (12.6 m at 0.2 m)");
+  k.require(f.max_height > f.min_height, "far_field.max_height", "must be > far_field.min_height");
+  k.require(f.wall_height >= f.min_height && f.wall_height <= f.max_height, "far_field.wall_height",
+            "must be in [far_field.min_height, far_field.max_height]");
+  k.require(f.max_evidence >= f.hit_evidence, "far_field.max_evidence",
+            "must be >= far_field.hit_evidence");
+}
+
+// The derived worst case of the whole frame (only once every field is in range).
+void check_worst_case(const PipelineConfig& c, Checker& k) noexcept {
+  const WorstCaseWork w = worst_case_work(c);
+  k.require(w.refiner_voxels <= kMaxRefinerVoxelsPerFrame, "refiner.max_voxels_per_box",
+            "detector.max_detections x 2 passes x this must be <= kMaxRefinerVoxelsPerFrame "
+            "(2'097'152)");
+  k.require(w.predictor_voxel_steps <= kMaxPredictorVoxelStepsPerFrame,
+            "predictor.paths.horizon_distance",
+            "the prediction sweep's worst case (kMaxTracks x paths x clearance lines x height "
+            "levels x horizon / map.resolution voxels, see worst_case_work) exceeds "
+            "kMaxPredictorVoxelStepsPerFrame (4'000'000): shorten the horizon, use fewer "
+            "paths, lines or height levels, or a coarser map.resolution");
+}
+
+}  // namespace
+
+ConfigError validate(const PipelineConfig& c) noexcept {
+  const ConfigError range = check_ranges(c);
+  if (!range.ok()) return range;
+  Checker k;
+  check_map_relations(c, k);
+  check_tracker_relations(c, k);
+  check_far_field_relations(c, k);
+  if (!k.failed()) check_worst_case(c, k);
+  return k.error;
+}
+
+}  // namespace dynamap

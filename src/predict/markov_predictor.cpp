@@ -1,0 +1,269 @@
+#include "dynamap/predict/markov_predictor.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "dynamap/core/fixed_vector.hpp"
+
+namespace dynamap {
+
+namespace {
+
+using Belief = MarkovPredictor::Belief;
+
+/// Discrete Gaussian over indices 0..n-1 around `centre`, normalised. Exponents are taken
+/// relative to the nearest index so the largest weight is 1 and the sum never underflows.
+void discrete_gaussian(std::size_t n, double centre, double sigma, Belief* out) noexcept {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = static_cast<double>(i) - centre;
+    nearest = std::fmin(nearest, d * d);
+  }
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = static_cast<double>(i) - centre;
+    (*out)[i] = std::exp(-(d * d - nearest) / (2.0 * sigma * sigma));
+    sum += (*out)[i];
+  }
+  for (std::size_t i = 0; i < n; ++i) (*out)[i] /= sum;
+  for (std::size_t i = n; i < kMaxPaths; ++i) (*out)[i] = 0.0;
+}
+
+/// Scales v[0..n) to sum 1; false (v untouched) when the sum is zero, subnormal or not finite.
+bool normalise(std::size_t n, Belief* v) noexcept {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) sum += (*v)[i];
+  if (!std::isfinite(sum) || !(sum >= std::numeric_limits<double>::min())) return false;
+  const double inv = 1.0 / sum;
+  for (std::size_t i = 0; i < n; ++i) (*v)[i] *= inv;
+  return true;
+}
+
+bool positive_finite(float v) noexcept {
+  return std::isfinite(v) && v > 0.0f;
+}
+
+}  // namespace
+
+Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
+  PathLibrary lib;
+  if (!ok(lib.init(c.paths))) return Status::kInvalidArgument;
+  if (!ok(validate(c.clearance))) return Status::kInvalidArgument;
+  if (!positive_finite(c.sigma_init) || !positive_finite(c.sigma_trans)) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.beta) || c.beta < 0.0f) return Status::kInvalidArgument;
+  if (!std::isfinite(c.unknown_weight) || c.unknown_weight < 0.0f || c.unknown_weight > 1.0f) {
+    return Status::kInvalidArgument;
+  }
+  if (!ok(validate(c.depth_check))) return Status::kInvalidArgument;
+  if (c.belief_update != BeliefUpdate::kCompound && c.belief_update != BeliefUpdate::kChoiceOnly) {
+    return Status::kInvalidArgument;
+  }
+
+  config_ = c;
+  library_ = lib;
+  const std::size_t l = library_.size();
+  const double s_init = sigma_in_indices(c.sigma_init);
+  const double s_trans = sigma_in_indices(c.sigma_trans);
+  discrete_gaussian(l, static_cast<double>(library_.center_index()), s_init, &initial_);
+  for (std::size_t i = 0; i < kMaxPaths; ++i) {
+    if (i < l) {
+      discrete_gaussian(l, static_cast<double>(i), s_trans, &trans_[i]);
+    } else {
+      trans_[i].fill(0.0);
+    }
+  }
+  beliefs_.clear();
+  underflow_restarts_ = 0;
+  initialised_ = true;
+  return Status::kOk;
+}
+
+double MarkovPredictor::sigma_in_indices(float sigma_rad) const noexcept {
+  const std::size_t l = library_.size();
+  const double spacing = l > 1 ? 2.0 * static_cast<double>(library_.config().max_heading_change) /
+                                     static_cast<double>(l - 1)
+                               : 0.0;
+  // All paths identical (l = 1 or no turning): the distributions are uniform anyway.
+  if (!(spacing > 0.0)) return 1e6;
+  return static_cast<double>(sigma_rad) / spacing;
+}
+
+bool MarkovPredictor::belief(std::uint32_t track_id, Belief* out) const noexcept {
+  const Belief* b = beliefs_.find(track_id);
+  if (b == nullptr) return false;
+  *out = *b;
+  return true;
+}
+
+Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t count,
+                                const OccupancyQuery& map, const DepthEvidence* depth,
+                                const FarFieldLayer* far_field, PathPrediction* out) noexcept {
+  if (!initialised_) return Status::kNotInitialized;
+  // Validate everything before touching any state.
+  const Status bad = validate_prediction_call(obstacles, count, map, depth, out);
+  if (!ok(bad)) return bad;
+  for (std::size_t k = 0; k < count; ++k) {
+    for (std::size_t m = 0; m < k; ++m) {
+      if (obstacles[m].track_id == obstacles[k].track_id) return Status::kInvalidArgument;
+    }
+  }
+
+  // Forget tracks that are not in this frame first, so the table never holds more than count.
+  FixedVector<std::uint32_t, kPredictorTrackSlots> stale;
+  beliefs_.for_each([&](std::uint32_t id, const Belief&) {
+    for (std::size_t k = 0; k < count; ++k) {
+      if (obstacles[k].track_id == id) return;
+    }
+    (void)stale.push_back(id);  // cannot fail: stale holds at most the table's size
+  });
+  for (const std::uint32_t id : stale) beliefs_.erase(id);
+
+  DepthSweep sweep;
+  sweep.evidence = depth;
+  sweep.config = config_.depth_check;
+  sweep.obstacles = obstacles;
+  sweep.count = count;
+  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, sweep, far_field, &out[k]);
+  return Status::kOk;
+}
+
+void MarkovPredictor::predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
+                                  const DepthSweep& depth, const FarFieldLayer* far_field,
+                                  PathPrediction* out) noexcept {
+  const std::size_t l = library_.size();
+  const Belief env = sweep_paths(obstacle, map, depth, far_field, out);
+  const Belief post = update_belief(obstacle.track_id, env);
+  const std::size_t best = choose_path(post, *out);
+  for (std::size_t i = 0; i < kMaxPaths; ++i) {
+    out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;
+    if (i >= l) {
+      out->free_distance[i] = 0.0f;
+      out->observed_distance[i] = 0.0f;
+    }
+  }
+  out->chosen = best;
+  out->failed = !out->path_free(best);
+  write_chosen_path(paths_[best], obstacle.position.z(), out);
+}
+
+MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstacle,
+                                                     const OccupancyQuery& map,
+                                                     const DepthSweep& depth,
+                                                     const FarFieldLayer* far_field,
+                                                     PathPrediction* out) noexcept {
+  const std::size_t l = library_.size();
+  const Eigen::Vector2f origin = obstacle.position.head<2>();
+  out->track_id = obstacle.track_id;
+  out->num_paths = l;
+  out->free_mask = 0;
+  out->depth_blocked_mask = 0;
+  out->far_blocked_mask = 0;
+  out->any_free = false;
+  const bool observed = config_.unknown_weight < 1.0f;
+  const float w = config_.unknown_weight;
+  std::array<float, kMaxPaths> dist{};  // Dist_i of P_env
+  float max_dist = 0.0f;
+  for (std::size_t i = 0; i < l; ++i) {
+    library_.sample(i, origin, obstacle.velocity, &paths_[i]);
+    const PathClearance c =
+        sweep_path(map, paths_[i], obstacle, config_.clearance, observed, depth, far_field);
+    out->free_distance[i] = c.free_distance;
+    out->observed_distance[i] = c.observed_distance;
+    if (c.depth_blocked) out->depth_blocked_mask |= 1u << i;
+    if (c.far_blocked) out->far_blocked_mask |= 1u << i;
+    if (c.free) {
+      out->free_mask |= 1u << i;
+      out->any_free = true;
+    }
+    dist[i] = c.observed_distance + w * (c.free_distance - c.observed_distance);
+    max_dist = i == 0 ? dist[i] : std::fmax(max_dist, dist[i]);
+  }
+
+  // P_env = softmax(beta * Dist), shifted by the maximum so the largest term is exactly 1.
+  Belief env{};
+  for (std::size_t i = 0; i < l; ++i) {
+    env[i] = std::exp(static_cast<double>(config_.beta) * static_cast<double>(dist[i] - max_dist));
+  }
+  const bool env_ok = normalise(l, &env);  // sum >= 1 by construction
+  if (!env_ok) {
+    for (std::size_t i = 0; i < l; ++i) env[i] = 1.0 / static_cast<double>(l);
+  }
+  return env;
+}
+
+MarkovPredictor::Belief MarkovPredictor::update_belief(std::uint32_t track_id,
+                                                       const Belief& env) noexcept {
+  // prior = P(t) * P_trans, or P_init for a new track; post = prior (.) P_env, normalised, is
+  // what the choice is made on. kCompound keeps post for the next frame, kChoiceOnly keeps prior.
+  const std::size_t l = library_.size();
+  bool inserted = false;
+  Belief* state = beliefs_.find_or_insert(track_id, inserted);
+  const bool fresh = inserted || state == nullptr;
+  Belief prior{};
+  if (fresh) {
+    prior = initial_;
+  } else {
+    for (std::size_t j = 0; j < l; ++j) {
+      double pred = 0.0;
+      for (std::size_t i = 0; i < l; ++i) pred += (*state)[i] * trans_[i][j];
+      prior[j] = pred;
+    }
+  }
+  Belief post{};
+  for (std::size_t j = 0; j < l; ++j) post[j] = prior[j] * env[j];
+  if (!normalise(l, &post)) {
+    // The old belief and the map disagree beyond double precision: restart from the prior.
+    ++underflow_restarts_;
+    prior = initial_;
+    for (std::size_t j = 0; j < l; ++j) post[j] = initial_[j] * env[j];
+    if (!normalise(l, &post)) post = env;
+  }
+  const BeliefUpdate mode = config_.belief_update;
+  if (mode == BeliefUpdate::kChoiceOnly && !normalise(l, &prior)) prior = initial_;
+  if (state != nullptr) {  // nullptr only if the table were full (it cannot be)
+    *state = mode == BeliefUpdate::kCompound ? post : prior;
+  }
+  return post;
+}
+
+std::size_t MarkovPredictor::choose_path(const Belief& post,
+                                         const PathPrediction& out) const noexcept {
+  // Most likely path (among the free ones when choose_free and any is free). Exact ties go to
+  // the one nearer the straight path, then (mirror pairs) to the one seen free for longer.
+  const std::size_t l = library_.size();
+  const float centre = library_.center_index();
+  const bool only_free = config_.choose_free && out.any_free;
+  std::size_t best = l;
+  for (std::size_t i = 0; i < l; ++i) {
+    if (only_free && !out.path_free(i)) continue;
+    if (best == l) {
+      best = i;
+      continue;
+    }
+    const float off_i = std::fabs(static_cast<float>(i) - centre);
+    const float off_best = std::fabs(static_cast<float>(best) - centre);
+    const bool better = post[i] > post[best];
+    const bool tie = post[i] == post[best];
+    const bool tie_nearer = tie && off_i < off_best;
+    const bool tie_seen =
+        tie && off_i == off_best && out.observed_distance[i] > out.observed_distance[best];
+    if (better || tie_nearer || tie_seen) best = i;
+  }
+  if (best == l) return 0;  // l >= 1: best == l only if no path was considered (cannot be)
+  // Never prefer a worse bet: straight when it is free and no path is better supported.
+  const std::size_t straight = (l - 1) / 2;  // the straight path when l is odd
+  if (config_.straight_when_free && l % 2 == 1 && out.path_free(straight) &&
+      support(out, straight) >= support(out, best)) {
+    return straight;
+  }
+  return best;
+}
+
+float MarkovPredictor::support(const PathPrediction& out, std::size_t i) const noexcept {
+  const float w = config_.unknown_weight;
+  return out.observed_distance[i] + w * (out.free_distance[i] - out.observed_distance[i]);
+}
+
+}  // namespace dynamap

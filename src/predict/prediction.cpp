@@ -1,0 +1,387 @@
+#include "dynamap/predict/prediction.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dynamap/predict/detail/path_sweep.hpp"
+#include "dynamap/predict/far_field_layer.hpp"
+
+namespace dynamap {
+
+Status validate(const ClearanceConfig& c) noexcept {
+  if (c.max_lines < 1 || c.max_lines > kMaxClearanceLines) return Status::kInvalidArgument;
+  if (!std::isfinite(c.line_spacing) || c.line_spacing <= 0.0f) return Status::kInvalidArgument;
+  if (c.height_levels < 1 || c.height_levels > kMaxHeightLevels) return Status::kInvalidArgument;
+  if (!std::isfinite(c.chord_tolerance) || c.chord_tolerance < 0.0f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.ground_clearance) || c.ground_clearance < 0.0f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.self_margin) || c.self_margin < 0.0f) return Status::kInvalidArgument;
+  if (!std::isfinite(c.self_range_margin) || c.self_range_margin < 0.0f) {
+    return Status::kInvalidArgument;
+  }
+  return Status::kOk;
+}
+
+Status validate(const DepthCheckConfig& c) noexcept {
+  if (!std::isfinite(c.noise_margin) || c.noise_margin < 0.0f) return Status::kInvalidArgument;
+  if (!std::isfinite(c.noise_quadratic) || c.noise_quadratic < 0.0f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.surface_thickness) || c.surface_thickness < 0.0f) {
+    return Status::kInvalidArgument;
+  }
+  if (!std::isfinite(c.min_depth) || c.min_depth <= 0.0f) return Status::kInvalidArgument;
+  if (!std::isfinite(c.max_depth) || c.max_depth <= c.min_depth) return Status::kInvalidArgument;
+  return Status::kOk;
+}
+
+DepthEvidence DepthEvidence::of(const DepthView& depth, const CameraIntrinsics& camera,
+                                const Pose& T_map_camera) noexcept {
+  DepthEvidence e;
+  e.depth = depth;
+  e.camera = camera;
+  e.R_cam_map = T_map_camera.rotation.toRotationMatrix().transpose();
+  e.origin = T_map_camera.translation;
+  e.t_cam_map = -(e.R_cam_map * e.origin);
+  return e;
+}
+
+Status validate(const DepthEvidence& e) noexcept {
+  const Status s = validate_depth(e.depth, e.camera);
+  if (!ok(s)) return s;
+  const CameraIntrinsics& c = e.camera;
+  if (!std::isfinite(c.fx) || !std::isfinite(c.fy) || !std::isfinite(c.cx) ||
+      !std::isfinite(c.cy) || !std::isfinite(c.depth_scale) || !e.R_cam_map.allFinite() ||
+      !e.t_cam_map.allFinite() || !e.origin.allFinite()) {
+    return Status::kNonFinite;
+  }
+  if (!(c.fx > 0.0f) || !(c.fy > 0.0f) || !(c.depth_scale > 0.0f)) {
+    return Status::kInvalidArgument;
+  }
+  return Status::kOk;
+}
+
+Status validate(const ObstacleState& o) noexcept {
+  if (!o.position.allFinite() || !o.velocity.allFinite() || !std::isfinite(o.footprint_radius) ||
+      !std::isfinite(o.height) || !std::isfinite(o.body_margin)) {
+    return Status::kNonFinite;
+  }
+  if (o.footprint_radius < 0.0f || o.height < 0.0f || o.body_margin < 0.0f) {
+    return Status::kInvalidArgument;
+  }
+  return Status::kOk;
+}
+
+std::size_t clearance_lines(const ClearanceConfig& c, float radius) noexcept {
+  if (!(radius > 0.0f) || !(c.line_spacing > 0.0f)) return 1;
+  const float gaps = std::ceil(2.0f * radius / c.line_spacing - 1e-3f);
+  const float cap = static_cast<float>(std::min(c.max_lines, kMaxClearanceLines));
+  return static_cast<std::size_t>(std::clamp(gaps + 1.0f, 1.0f, cap));
+}
+
+namespace {
+/// Fraction t in [0, 1] of segment a->b where it leaves the disc of squared radius r2 around c
+/// (0 when a is outside; > 1 when b is inside too, i.e. the whole segment is inside).
+float exit_fraction(const Eigen::Vector2f& a, const Eigen::Vector2f& b, const Eigen::Vector2f& c,
+                    float r2) noexcept {
+  const Eigen::Vector2f d = b - a;
+  const Eigen::Vector2f f = a - c;
+  const float cf = f.squaredNorm() - r2;
+  if (cf >= 0.0f) return 0.0f;  // starts outside
+  if ((b - c).squaredNorm() <= r2) return 2.0f;
+  const float dd = d.squaredNorm();
+  const float fd = f.dot(d);
+  // |f + t d|^2 = r2 has one root in (0, 1) because a is inside and b outside.
+  return (-fd + std::sqrt(fd * fd - dd * cf)) / dd;
+}
+
+/// Last sample m > k such that the chord k->m stays within `tolerance` of the path: the sag of
+/// an arc of length L turning by dphi is about L * dphi / 8 (exactly 0 on straight parts).
+std::size_t chord_end(const PathSamples& path, std::size_t k, std::size_t n,
+                      float tolerance) noexcept {
+  std::size_t m = k + 1;
+  const Eigen::Vector2f& t0 = path.tangent[k];
+  while (m + 1 < n) {
+    const Eigen::Vector2f& t1 = path.tangent[m + 1];
+    const float dot = t0.dot(t1);
+    const float cross = std::fabs(t0.x() * t1.y() - t0.y() * t1.x());
+    const float length = path.arc_length[m + 1] - path.arc_length[k];
+    if (dot < 0.9f || length * cross > 8.0f * tolerance) break;  // sin(dphi) ~ dphi up to 25 deg
+    ++m;
+  }
+  return m;
+}
+
+/// The swept lines of one obstacle: lateral offsets, heights, and the own-body disc.
+struct SweepGeometry {
+  std::array<float, kMaxClearanceLines> offset{};
+  std::size_t lines = 1;
+  std::array<float, kMaxHeightLevels> level{};
+  std::size_t levels = 1;
+  Eigen::Vector2f self_centre = Eigen::Vector2f::Zero();
+  float self_r = 0.0f;
+  float self_r2 = 0.0f;
+};
+
+SweepGeometry sweep_geometry(const ObstacleState& obstacle,
+                             const ClearanceConfig& clearance) noexcept {
+  SweepGeometry g;
+  const float r = obstacle.footprint_radius;
+  g.lines = clearance_lines(clearance, r);
+  for (std::size_t j = 0; j < g.lines; ++j) {
+    g.offset[j] = g.lines == 1
+                      ? 0.0f
+                      : -r + 2.0f * r * static_cast<float>(j) / static_cast<float>(g.lines - 1);
+  }
+  const float lo = obstacle.position.z() - 0.5f * obstacle.height + clearance.ground_clearance;
+  const float hi = obstacle.position.z() + 0.5f * obstacle.height;
+  g.levels = std::min(clearance.height_levels, kMaxHeightLevels);
+  if (hi <= lo) {
+    g.levels = 1;
+    g.level[0] = obstacle.position.z();
+  } else {
+    const float step = (hi - lo) / static_cast<float>(g.levels);
+    for (std::size_t h = 0; h < g.levels; ++h) {
+      g.level[h] = lo + (static_cast<float>(h) + 0.5f) * step;
+    }
+  }
+  // The obstacle's own body: not checked.
+  g.self_centre = obstacle.position.head<2>();
+  g.self_r = clearance.self_margin > 0.0f ? r + clearance.self_margin + obstacle.body_margin : 0.0f;
+  g.self_r2 = g.self_r * g.self_r;
+  return g;
+}
+
+/// Arc length along `path` before any swept line meets a voxel that `query` reports (the map's
+/// occupied query or its non-free one); the full length, and *free = true, when none does.
+template <class Query>
+float first_hit_distance(const Query& query, const PathSamples& path, const SweepGeometry& g,
+                         const ClearanceConfig& clearance, bool* free) noexcept {
+  *free = true;
+  const std::size_t n = std::min(path.count, kMaxPathSamples);
+  if (n == 0) return 0.0f;
+  std::size_t k = 0;
+  while (k + 1 < n) {
+    const std::size_t m = chord_end(path, k, n, clearance.chord_tolerance);
+    const Eigen::Vector2f n0(-path.tangent[k].y(), path.tangent[k].x());
+    const Eigen::Vector2f n1(-path.tangent[m].y(), path.tangent[m].x());
+    float first = 2.0f;  // fraction of this chord at the first hit; > 1 means none
+    for (std::size_t h = 0; h < g.levels; ++h) {
+      for (std::size_t j = 0; j < g.lines; ++j) {
+        const Eigen::Vector2f a2 = path.position[k] + g.offset[j] * n0;
+        const Eigen::Vector2f b2 = path.position[m] + g.offset[j] * n1;
+        const Eigen::Vector3f a(a2.x(), a2.y(), g.level[h]);
+        const Eigen::Vector3f b(b2.x(), b2.y(), g.level[h]);
+        // Start where the line leaves the obstacle's own body; after a hit at fraction
+        // `first`, the other lines only need to look before it.
+        const float t0 = g.self_r > 0.0f ? exit_fraction(a2, b2, g.self_centre, g.self_r2) : 0.0f;
+        const float t1 = std::min(first, 1.0f);
+        if (t0 >= t1) continue;
+        const Eigen::Vector3f a_cut = t0 > 0.0f ? Eigen::Vector3f(a + t0 * (b - a)) : a;
+        const Eigen::Vector3f b_cut = t1 < 1.0f ? Eigen::Vector3f(a + t1 * (b - a)) : b;
+        Eigen::Vector3f hit;
+        if (!query(a_cut, b_cut, &hit)) continue;
+        const Eigen::Vector2f ab = b2 - a2;
+        const float len2 = ab.squaredNorm();
+        float f = 0.0f;
+        if (len2 > 1e-12f) f = (hit.head<2>() - a2).dot(ab) / len2;
+        if (!(f > 0.0f)) f = 0.0f;  // also catches NaN from a degenerate hit
+        first = std::min(first, std::min(f, 1.0f));
+      }
+    }
+    if (first <= 1.0f) {
+      *free = false;
+      return path.arc_length[k] + first * (path.arc_length[m] - path.arc_length[k]);
+    }
+    k = m;
+  }
+  return path.arc_length[n - 1];
+}
+/// Does map point `p` lie at a surface of the depth frame (not floor, not a predicted obstacle):
+/// along the viewing ray, at most the noise margin in front of it, or behind it by at most the
+/// margin plus `band`? Outside the image, no return, out of range, in front of the surface or far
+/// behind it (occluded): no.
+bool depth_surface_at(const DepthSweep& sw, const Eigen::Vector3f& p, float band, float floor_z,
+                      float exclude_margin) noexcept {
+  const DepthEvidence& ev = *sw.evidence;
+  const DepthCheckConfig& dc = sw.config;
+  const CameraIntrinsics& cam = ev.camera;
+  const Eigen::Vector3f pc = ev.R_cam_map * p + ev.t_cam_map;
+  if (!(pc.z() >= dc.min_depth)) return false;  // behind the camera, too near (or NaN)
+  const float inv_z = 1.0f / pc.z();
+  const float u = cam.fx * pc.x() * inv_z + cam.cx;
+  const float v = cam.fy * pc.y() * inv_z + cam.cy;
+  // Pixel centres sit at integer coordinates (the map's and the renderer's convention).
+  if (!(u >= -0.5f && u < static_cast<float>(ev.depth.width) - 0.5f)) return false;
+  if (!(v >= -0.5f && v < static_cast<float>(ev.depth.height) - 0.5f)) return false;
+  const int iu = static_cast<int>(u + 0.5f);
+  const int iv = static_cast<int>(v + 0.5f);
+  const std::uint16_t raw = ev.depth.at(iu, iv);
+  if (raw == 0) return false;  // no return: the image knows nothing here
+  const float d = static_cast<float>(raw) * cam.depth_scale;
+  if (d < dc.min_depth || d > dc.max_depth) return false;
+  const float m = dc.noise_margin + dc.noise_quadratic * d * d;
+  if (pc.z() < d - m) return false;         // in front of the surface: seen free
+  if (pc.z() > d + m + band) return false;  // farther behind it: occluded, unknown
+  // The measured point on the same ray. Floor and walkers (the swept one and the others) are
+  // not walls: their pixels neither block a path nor say what lies behind them.
+  const Eigen::Vector3f q = ev.origin + (d * inv_z) * (p - ev.origin);
+  if (q.z() < floor_z) return false;
+  for (std::size_t k = 0; k < sw.count; ++k) {
+    const ObstacleState& o = sw.obstacles[k];
+    const float r = o.footprint_radius + exclude_margin + m;
+    if ((q.head<2>() - o.position.head<2>()).squaredNorm() < r * r) return false;
+  }
+  return true;
+}
+
+/// Arc length along `path`, up to `limit`, before a swept line's point at a sample meets a
+/// surface in the depth frame (the sample's arc length); `limit` and *free = true when none does.
+float depth_hit_distance(const DepthSweep& sw, const PathSamples& path, const SweepGeometry& g,
+                         float floor_z, float exclude_margin, float limit, bool* free) noexcept {
+  *free = true;
+  const std::size_t n = std::min(path.count, kMaxPathSamples);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (path.arc_length[k] > limit) break;
+    // A line crossing a surface has a point within one sample spacing behind it (the spacing
+    // bounds the step along the ray), so no wall is stepped over between samples.
+    const float step = k > 0 ? path.arc_length[k] - path.arc_length[k - 1] : 0.0f;
+    const float band = std::max(sw.config.surface_thickness, step);
+    const Eigen::Vector2f normal(-path.tangent[k].y(), path.tangent[k].x());
+    for (std::size_t j = 0; j < g.lines; ++j) {
+      const Eigen::Vector2f p2 = path.position[k] + g.offset[j] * normal;
+      // Same own-body disc as the map's sweep.
+      if (g.self_r > 0.0f && (p2 - g.self_centre).squaredNorm() < g.self_r2) continue;
+      for (std::size_t h = 0; h < g.levels; ++h) {
+        if (depth_surface_at(sw, Eigen::Vector3f(p2.x(), p2.y(), g.level[h]), band, floor_z,
+                             exclude_margin)) {
+          *free = false;
+          return path.arc_length[k];
+        }
+      }
+    }
+  }
+  return limit;
+}
+/// Arc length along `path`, up to `limit`, before a point of the footprint at a sample lies in a
+/// remembered wall cell of the far-field layer; `limit` and *free = true when none does. The
+/// lines are at most one cell apart, so no cell slips between them.
+float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const SweepGeometry& g,
+                       float radius, float limit, bool* free) noexcept {
+  *free = true;
+  const float cell = far.config().cell_size;
+  // A remembered wall lies somewhere in its cell: the half cell is taken off the footprint so
+  // the coarse grid does not inflate walls by a whole cell (on average it is half of one).
+  radius = std::max(0.0f, radius - 0.5f * cell);
+  const std::size_t lines =
+      radius > 0.0f
+          ? std::min<std::size_t>(kMaxClearanceLines,
+                                  static_cast<std::size_t>(std::ceil(2.0f * radius / cell)) + 1)
+          : 1;
+  std::array<float, kMaxClearanceLines> offset{};
+  for (std::size_t j = 0; j < lines; ++j) {
+    offset[j] = lines == 1 ? 0.0f
+                           : -radius + 2.0f * radius * static_cast<float>(j) /
+                                           static_cast<float>(lines - 1);
+  }
+  const std::size_t n = std::min(path.count, kMaxPathSamples);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (path.arc_length[k] > limit) break;
+    const Eigen::Vector2f normal(-path.tangent[k].y(), path.tangent[k].x());
+    for (std::size_t j = 0; j < lines; ++j) {
+      const Eigen::Vector2f p2 = path.position[k] + offset[j] * normal;
+      if (g.self_r > 0.0f && (p2 - g.self_centre).squaredNorm() < g.self_r2) continue;
+      if (far.occupied(p2)) {
+        *free = false;
+        return path.arc_length[k];
+      }
+    }
+  }
+  return limit;
+}
+}  // namespace
+
+PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
+                         const ObstacleState& obstacle, const ClearanceConfig& clearance,
+                         bool observed, const DepthSweep& depth,
+                         const FarFieldLayer* far_field) noexcept {
+  const SweepGeometry g = sweep_geometry(obstacle, clearance);
+  PathClearance result;
+  result.free_distance =
+      first_hit_distance([&map](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                Eigen::Vector3f* hit) { return map.segment(a, b, hit); },
+                         path, g, clearance, &result.free);
+  result.observed_distance = result.free_distance;
+  if (observed && map.knows_unknown() && result.free_distance > 0.0f) {
+    // Same lines and chords; an occupied voxel is also non-free, so this sweep stops at or
+    // before the occupied one (the min only absorbs rounding of the hit fractions).
+    bool all_observed = true;
+    const float d =
+        first_hit_distance([&map](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                                  Eigen::Vector3f* hit) { return map.non_free_segment(a, b, hit); },
+                           path, g, clearance, &all_observed);
+    result.observed_distance = std::min(d, result.free_distance);
+  }
+  if (depth.active()) {
+    // Only the stretch before the map's hit can change the answer.
+    const float floor_z =
+        obstacle.position.z() - 0.5f * obstacle.height + clearance.ground_clearance;
+    bool depth_free = true;
+    const float d = depth_hit_distance(depth, path, g, floor_z, clearance.self_margin,
+                                       result.free_distance, &depth_free);
+    if (!depth_free) {
+      result.depth_blocked = result.free || d < result.free_distance;
+      result.free = false;
+      result.free_distance = std::min(result.free_distance, d);
+      result.observed_distance = std::min(result.observed_distance, result.free_distance);
+    }
+  }
+  if (far_field != nullptr && far_field->initialised() && far_field->config().enabled) {
+    bool far_free = true;
+    const float d = far_hit_distance(*far_field, path, g, obstacle.footprint_radius,
+                                     result.free_distance, &far_free);
+    if (!far_free) {
+      result.far_blocked = result.free || d < result.free_distance;
+      result.free = false;
+      result.free_distance = std::min(result.free_distance, d);
+      result.observed_distance = std::min(result.observed_distance, result.free_distance);
+    }
+  }
+  return result;
+}
+
+void write_chosen_path(const PathSamples& path, float z, PathPrediction* out) noexcept {
+  const std::size_t n = std::min(path.count, kMaxPathSamples);
+  out->num_samples = n;
+  out->path_length = n > 0 ? path.arc_length[n - 1] : 0.0f;
+  for (std::size_t k = 0; k < n; ++k) {
+    out->position[k] = Eigen::Vector3f(path.position[k].x(), path.position[k].y(), z);
+    out->time[k] = path.time[k];
+  }
+}
+
+Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
+                                const OccupancyQuery& map, const PathPrediction* out) noexcept {
+  if (count > kMaxTracks) return Status::kCapacityExceeded;
+  if (count > 0 && (obstacles == nullptr || out == nullptr || !map.valid())) {
+    return Status::kNullData;
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const Status s = validate(obstacles[k]);
+    if (!ok(s)) return s;
+  }
+  return Status::kOk;
+}
+
+Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
+                                const OccupancyQuery& map, const DepthEvidence* depth,
+                                const PathPrediction* out) noexcept {
+  const Status s = validate_prediction_call(obstacles, count, map, out);
+  if (!ok(s) || depth == nullptr) return s;
+  return validate(*depth);
+}
+
+}  // namespace dynamap

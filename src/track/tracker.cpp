@@ -1,0 +1,476 @@
+#include "dynamap/track/tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace dynamap {
+
+namespace {
+
+/// Saturation of Track::dynamic_frames: far above any hold_min_dynamic_frames in use.
+constexpr std::size_t kMaxHoldCount = std::size_t{1} << 20;
+
+float seconds_between(Stamp earlier, Stamp later) noexcept {
+  return static_cast<float>(static_cast<double>(later - earlier) * 1e-9);
+}
+
+/// Top-view overlap area of two boxes.
+float overlap_area_xy(const Box3& a, const Box3& b) noexcept {
+  const float dx = std::min(a.max.x(), b.max.x()) - std::max(a.min.x(), b.min.x());
+  const float dy = std::min(a.max.y(), b.max.y()) - std::max(a.min.y(), b.min.y());
+  return (dx > 0.f && dy > 0.f) ? dx * dy : 0.f;
+}
+
+Status validate_box(const Box3& b) noexcept {
+  if (!b.min.allFinite() || !b.max.allFinite()) return Status::kNonFinite;
+  if ((b.min.array() > b.max.array()).any()) return Status::kInvalidArgument;
+  return Status::kOk;
+}
+
+/// Both boxes: either may be the one measured (TrackerConfig::measure_raw_box).
+Status validate_detection(const Detection& d) noexcept {
+  const Status s = validate_box(d.box);
+  return ok(s) ? validate_box(d.raw_box) : s;
+}
+
+}  // namespace
+
+Status TrackerConfig::validate() const noexcept {
+  if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
+  if (!std::isfinite(max_static_share) || max_static_share < 0.f || max_static_share > 1.f) {
+    return Status::kInvalidArgument;
+  }
+  const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
+                    overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
+                    std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
+                    std::isfinite(noise_reference_depth) && noise_reference_depth >= 0.f &&
+                    std::isfinite(max_extent_change_ratio) && std::isfinite(max_round_footprint) &&
+                    max_round_footprint >= 0.f && std::isfinite(max_coast_time) &&
+                    max_coast_time > 0.f && std::isfinite(ever_free_share) &&
+                    ever_free_share > 0.f && ever_free_share <= 1.f &&
+
+                    history_length + 1 <= kMaxTrackHistory &&
+                    continuity.displacement_frames + 1 <= history_length &&
+                    box_history_length >= 1 && box_history_length <= kMaxBoxHistory &&
+                    size_fix_frames >= 1 && early_votes <= continuity.vote_window &&
+                    early_displacement_frames < continuity.displacement_frames &&
+                    image_margin >= 0 && dynamic_hold_frames <= 100000 &&
+                    hold_min_dynamic_frames >= 1 && hold_min_dynamic_frames < kMaxHoldCount;
+  return good ? Status::kOk : Status::kInvalidArgument;
+}
+
+Tracker::Tracker() noexcept {
+  clear();
+}
+
+Status Tracker::init(const TrackerConfig& config, int image_width, int image_height) noexcept {
+  const Status s = config.validate();
+  if (!ok(s)) return s;
+  if (image_width <= 2 * config.image_margin || image_height <= 2 * config.image_margin) {
+    return Status::kInvalidArgument;
+  }
+  config_ = config;
+  image_width_ = image_width;
+  image_height_ = image_height;
+  clear();
+  return Status::kOk;
+}
+
+void Tracker::clear() noexcept {
+  for (Track& t : tracks_) t.active = false;
+  output_count_ = 0;
+  has_stamp_ = false;
+  last_stamp_ = 0;
+}
+
+bool Tracker::fully_in_view(const ImageBox& b) const noexcept {
+  const int m = config_.image_margin;
+  if (b.u1 < b.u0 || b.v1 < b.v0) return false;  // unknown / empty image box
+  return b.u0 >= m && b.v0 >= m && b.u1 <= image_width_ - 1 - m && b.v1 <= image_height_ - 1 - m;
+}
+
+bool Tracker::moves_rigidly(const Track& t) const noexcept {
+  if (config_.max_extent_change_ratio < 0.f) return true;
+  // Compare the newest detection box with the oldest one in the history (k frames back): the
+  // longest span gives the most displacement against the same edge noise.
+  const Eigen::Vector4f d = t.edges.at_age(0) - t.edges.at_age(t.edges.size() - 1);
+  const Eigen::Vector2f moved = 0.5f * (d.head<2>() + d.tail<2>());  // centre
+  const Eigen::Vector2f grown = d.tail<2>() - d.head<2>();           // size
+  return grown.norm() <= config_.max_extent_change_ratio * moved.norm();
+}
+
+Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3f& camera,
+                                      const Eigen::Vector3f* fixed_size) const noexcept {
+  Measurement m;
+  const Box3& box = config_.measure_raw_box ? det.raw_box : det.box;
+  m.center = box.center();
+  m.raw_size = box.size();
+  m.edges << box.min.head<2>(), box.max.head<2>();
+  m.in_view = fully_in_view(det.image_box);
+  m.near_enough = det.near_depth <= config_.size_fix_max_depth;
+  m.size = m.raw_size;
+  m.own_size = m.raw_size;
+  const bool round = config_.max_round_footprint <= 0.f ||
+                     std::max(m.raw_size.x(), m.raw_size.y()) <= config_.max_round_footprint;
+  if (config_.correct_near_surface_bias && round) {
+    const float footprint = std::max(m.raw_size.x(), m.raw_size.y());
+    m.own_size.x() = footprint;
+    m.own_size.y() = footprint;
+  }
+  if (fixed_size != nullptr) m.size = *fixed_size;
+  if (config_.correct_near_surface_bias && round) {
+    if (fixed_size == nullptr) {
+      // Depth sees only the near surface, so the extent along the ray is too small. Assume a
+      // round / square footprint: the full horizontal size is the larger horizontal extent.
+      const float footprint = std::max(m.raw_size.x(), m.raw_size.y());
+      m.size.x() = footprint;
+      m.size.y() = footprint;
+    }
+    // The near face is measured correctly; the missing depth lies on the far side, so move the
+    // centre away from the camera by half of it, per horizontal axis.
+    for (int a = 0; a < 2; ++a) {
+      const float missing = std::max(0.f, m.size[a] - m.raw_size[a]);
+      const float away = m.center[a] - camera[a];
+      if (away > 0.f) {
+        m.center[a] += 0.5f * missing;
+      } else if (away < 0.f) {
+        m.center[a] -= 0.5f * missing;
+      }
+    }
+  }
+  return m;
+}
+
+void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept {
+  t.active = true;
+  t.out = TrackedObstacle{};
+  t.out.id = next_id_++;
+  t.out.age = 1;
+  t.out.hits = 1;
+  t.out.last_seen = stamp;
+  t.kf.reset(Eigen::Vector4f(m.center.x(), m.center.y(), 0.f, 0.f), config_.kalman);
+  t.voter.reset();
+  t.dynamic_streak = 0;
+  t.ever_free_streak = 0;
+  t.on_static = false;
+  t.every_vote_dynamic = true;
+  t.was_dynamic = false;
+  t.dynamic_frames = 0;
+  t.held_frames = 0;
+  t.holding = false;
+  t.label = false;
+  t.positions.clear();
+  t.positions.push(m.center.head<2>(), config_.history_length + 1);
+  t.edges.clear();
+  t.edges.push(m.edges, config_.history_length + 1);
+  t.boxes.clear();
+  t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
+  t.last_measured = m.center.head<2>();
+  t.last_measured_stamp = stamp;
+  t.z_center = m.center.z();
+  t.size = m.size;
+  t.corrected_with = m.size;
+  const bool counts = m.in_view && m.near_enough;
+  t.in_view_frames = counts ? 1 : 0;
+  t.size_sum = counts ? m.size : Eigen::Vector3f::Zero();
+  if (t.in_view_frames >= config_.size_fix_frames) {
+    t.out.size_fixed = true;
+    t.in_view_frames = 0;
+    t.size_sum.setZero();
+  }
+}
+
+void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
+                            Stamp stamp) noexcept {
+  const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr);
+  const Eigen::Vector2f xy = m.center.head<2>();
+  // A step of the frozen size (just set or raised) changes how the detection is turned into a
+  // centre, which is no motion (compensate_size_steps); so does the footprint of a box cut by
+  // the image border, which grows as a person enters the view (compensate_cut_footprint).
+  // Measure the same detection with the size the last frame used and move the track's
+  // reference (filter position, position history, last measurement) by the difference.
+  const bool size_step = m.size != t.corrected_with &&
+                         ((config_.compensate_size_steps && t.out.size_fixed) ||
+                          (config_.compensate_cut_footprint && !t.out.size_fixed && !m.in_view));
+  if (size_step) {
+    const Eigen::Vector2f step = xy - measure(det, camera, &t.corrected_with).center.head<2>();
+    t.kf.shift_position(step);
+    t.positions.add_to_all(step);
+    t.last_measured += step;
+  }
+  t.corrected_with = m.size;
+  const float dt = seconds_between(t.last_measured_stamp, stamp);
+  const Eigen::Vector2f v_meas = (xy - t.last_measured) / dt;
+  float noise_scale = 1.f;
+  if (config_.noise_reference_depth > 0.f && det.near_depth > config_.noise_reference_depth) {
+    const float q = det.near_depth / config_.noise_reference_depth;
+    noise_scale = (q * q) * (q * q);
+  }
+  (void)t.kf.update(Eigen::Vector4f(xy.x(), xy.y(), v_meas.x(), v_meas.y()), noise_scale);
+
+  t.last_measured = xy;
+  t.last_measured_stamp = stamp;
+  t.z_center = m.center.z();
+  t.positions.push(xy, config_.history_length + 1);
+  t.edges.push(m.edges, config_.history_length + 1);
+  t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
+  update_size(t, m);
+  t.out.missed_frames = 0;
+  ++t.out.hits;
+  t.out.last_seen = stamp;
+  count_ever_free(t, det);
+  t.on_static = det.static_share > config_.max_static_share;
+  vote(t);
+}
+
+void Tracker::count_ever_free(Track& t, const Detection& det) noexcept {
+  t.ever_free_streak = det.ever_free >= config_.ever_free_share ? t.ever_free_streak + 1 : 0;
+}
+
+bool Tracker::ever_free_label(const Track& t) const noexcept {
+  if (config_.ever_free_frames == 0 || t.ever_free_streak < config_.ever_free_frames) return false;
+  const ContinuityConfig& cc = config_.continuity;
+  return !cc.check_size || ((t.size.array() >= cc.min_size.array()).all() &&
+                            (t.size.array() <= cc.max_size.array()).all());
+}
+
+void Tracker::update_size(Track& t, const Measurement& m) noexcept {
+  if (!t.out.size_fixed) {
+    t.size = m.size;
+    if (m.in_view && m.near_enough) {
+      ++t.in_view_frames;
+      t.size_sum += m.size;
+    } else if (m.in_view) {
+      // Too far for a trustworthy size (lost edge pixels, depth noise): not counted.
+    } else {
+      // Clipped by the image border: the box may be cut, start counting again.
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
+    }
+    if (t.in_view_frames >= config_.size_fix_frames) {
+      t.size = t.size_sum / static_cast<float>(t.in_view_frames);
+      t.out.size_fixed = true;
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
+    }
+  } else if (config_.size_fix_growth) {
+    // Same windows as above, on the sizes this detection alone gives.
+    if (m.in_view && m.near_enough) {
+      ++t.in_view_frames;
+      t.size_sum += m.own_size;
+    } else if (!m.in_view) {
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
+    }
+    if (t.in_view_frames >= config_.size_fix_frames) {
+      t.size = t.size.cwiseMax(t.size_sum / static_cast<float>(t.in_view_frames));
+      t.in_view_frames = 0;
+      t.size_sum.setZero();
+    }
+  }
+}
+
+void Tracker::vote(Track& t) noexcept {
+  // Continuity filter over the measured history (oldest first), then the vote.
+  std::array<Eigen::Vector2f, kMaxTrackHistory> ordered;
+  const std::size_t n = t.positions.size();
+  for (std::size_t i = 0; i < n; ++i) ordered[i] = t.positions.at_age(n - 1 - i);
+  float c_con = 0.f;
+  std::size_t span = config_.continuity.displacement_frames;
+  const std::size_t early_span = config_.early_displacement_frames;
+  if (n < span + 2 && early_span > 0 && n >= 2 * early_span + 1) span = early_span;
+  if (!continuity_score(ordered.data(), n, span, &c_con)) {
+    t.label = ever_free_label(t);  // no vote yet: only the ever-free evidence
+    hold_label(t);
+    return;
+  }
+  t.out.continuity = c_con;
+  const float speed = t.kf.velocity().norm();
+  const ContinuityFilter filter(config_.continuity);
+  const bool dynamic_vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t) && !t.on_static;
+  t.voter.push(dynamic_vote, config_.continuity);
+  t.dynamic_streak = dynamic_vote ? t.dynamic_streak + 1 : 0;
+  if (!dynamic_vote) t.every_vote_dynamic = false;
+  const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
+                     (t.every_vote_dynamic || t.was_dynamic);
+  t.label = t.voter.dynamic() || early || ever_free_label(t);
+  hold_label(t);
+}
+
+void Tracker::hold_label(Track& t) const noexcept {
+  if (t.label) {
+    t.was_dynamic = true;
+    t.holding = false;
+    t.held_frames = 0;
+    if (t.dynamic_frames < kMaxHoldCount) ++t.dynamic_frames;
+    return;
+  }
+  const std::size_t hold = config_.dynamic_hold_frames;
+  if (hold == 0 || t.dynamic_frames < config_.hold_min_dynamic_frames) return;
+  // A hold starts only when the label goes because the track slowed down (a stop); a track
+  // whose votes turn static while it still moves (non-rigid, implausible size) gets none. Once
+  // started it runs on while the person walks off again, until the votes take over.
+  if (!t.holding && !(t.kf.velocity().norm() < config_.continuity.min_speed)) return;
+  t.holding = true;
+  if (t.held_frames < hold) {
+    ++t.held_frames;
+    t.label = true;
+  }
+}
+
+Status Tracker::check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                            Stamp stamp) const noexcept {
+  if (count > 0 && dets == nullptr) return Status::kNullData;
+  if (count > kMaxDetections) return Status::kCapacityExceeded;
+  const Status pose_status = validate_pose(T_map_camera);
+  if (!ok(pose_status)) return pose_status;
+  if (has_stamp_ && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Status s = validate_detection(dets[i]);
+    if (!ok(s)) return s;
+  }
+  return Status::kOk;
+}
+
+Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_map_camera,
+                       Stamp stamp) noexcept {
+  const Status bad = check_input(dets, count, T_map_camera, stamp);  // before any change
+  if (!ok(bad)) return bad;
+  const Eigen::Vector3f camera = T_map_camera.translation;
+  predict_tracks(stamp);
+  for (std::size_t i = 0; i < count; ++i) frame_.meas[i] = measure(dets[i], camera, nullptr);
+  frame_.det_used.fill(false);
+  frame_.track_used.fill(false);
+  associate(count);
+  for (std::size_t p = 0; p < frame_.pair_count; ++p) {
+    const Pair& pr = frame_.pairs[p];
+    if (frame_.det_used[pr.det] || frame_.track_used[pr.slot]) continue;
+    frame_.det_used[pr.det] = true;
+    frame_.track_used[pr.slot] = true;
+    correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
+    tracks_[pr.slot].out.detection = pr.det;
+    tracks_[pr.slot].out.cut = !frame_.meas[pr.det].in_view;
+  }
+  coast_unmatched();
+  start_tracks(dets, count, stamp);
+  last_stamp_ = stamp;
+  has_stamp_ = true;
+  publish();
+  return Status::kOk;
+}
+
+void Tracker::predict_tracks(Stamp stamp) noexcept {
+  // Tracks unmeasured for longer than max_coast_time end; the rest are predicted.
+  const float dt = has_stamp_ ? seconds_between(last_stamp_, stamp) : 0.f;
+  for (Track& t : tracks_) {
+    if (!t.active) continue;
+    if (seconds_between(t.last_measured_stamp, stamp) > config_.max_coast_time) {
+      t.active = false;
+      ++dropped_tracks_;
+      continue;
+    }
+    if (dt > 0.f) (void)t.kf.predict(dt);
+    ++t.out.age;
+  }
+}
+
+void Tracker::associate(std::size_t count) noexcept {
+  // Candidate pairs in the top view, closest centre first (taken one-to-one by the caller).
+  frame_.pair_count = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Measurement& m = frame_.meas[i];
+    const Box3 det_box = Box3::from_center_size(m.center, m.size);
+    const Eigen::Vector3f ds = det_box.size();
+    const float det_area = ds.x() * ds.y();
+    for (std::size_t s = 0; s < kMaxTracks; ++s) {
+      const Track& t = tracks_[s];
+      if (!t.active) continue;
+      const Eigen::Vector2f predicted = t.kf.position();
+      const Box3 track_box =
+          Box3::from_center_size(Eigen::Vector3f(predicted.x(), predicted.y(), t.z_center), t.size);
+      const float distance = (m.center.head<2>() - predicted).norm();
+      const float overlap = overlap_area_xy(det_box, track_box);
+      const bool overlapping =
+          det_area > 0.f ? overlap >= config_.overlap_threshold * det_area : false;
+      if (overlapping || distance < config_.centre_gate) {
+        frame_.pairs[frame_.pair_count++] =
+            Pair{distance, static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(s)};
+      }
+    }
+  }
+  std::sort(frame_.pairs.begin(),
+            frame_.pairs.begin() + static_cast<std::ptrdiff_t>(frame_.pair_count),
+            [](const Pair& a, const Pair& b) { return a.distance < b.distance; });
+}
+
+void Tracker::coast_unmatched() noexcept {
+  for (std::size_t s = 0; s < kMaxTracks; ++s) {
+    Track& t = tracks_[s];
+    if (!t.active || frame_.track_used[s]) continue;
+    ++t.out.missed_frames;
+    t.out.detection = -1;
+    // An early label needs an unbroken run of votes: a gap withdraws it.
+    t.dynamic_streak = 0;
+    t.ever_free_streak = 0;
+    t.on_static = false;
+    if (t.voter.votes() > 0) t.every_vote_dynamic = false;
+    t.label = t.voter.dynamic();
+    if (t.out.missed_frames > config_.max_missed_frames) {
+      t.active = false;
+      ++dropped_tracks_;
+    }
+  }
+}
+
+void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept {
+  // Unmatched detections start tracks while slots last; the rest are refused and counted.
+  std::size_t free_slot = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (frame_.det_used[i]) continue;
+    while (free_slot < kMaxTracks && (tracks_[free_slot].active || frame_.track_used[free_slot])) {
+      ++free_slot;
+    }
+    if (free_slot == kMaxTracks) {
+      ++refused_tracks_;
+      continue;
+    }
+    Track& t = tracks_[free_slot];
+    start_track(t, frame_.meas[i], stamp);
+    t.out.detection = static_cast<std::int32_t>(i);
+    t.out.cut = !frame_.meas[i].in_view;
+    count_ever_free(t, dets[i]);
+    t.label = ever_free_label(t);
+    ++free_slot;
+  }
+}
+
+void Tracker::publish() noexcept {
+  output_count_ = 0;
+  for (std::size_t s = 0; s < kMaxTracks; ++s) {
+    Track& t = tracks_[s];
+    if (!t.active) continue;
+    const Eigen::Vector2f p = t.kf.position();
+    const Eigen::Vector2f v = t.kf.velocity();
+    t.out.box = Box3::from_center_size(Eigen::Vector3f(p.x(), p.y(), t.z_center), t.size);
+    t.out.velocity = Eigen::Vector3f(v.x(), v.y(), 0.f);
+    t.out.speed = v.norm();
+    t.out.dynamic = t.label;
+    t.out.dynamic_votes = static_cast<std::uint32_t>(t.voter.dynamic_votes());
+    t.out.votes = static_cast<std::uint32_t>(t.voter.votes());
+    t.out.dynamic_streak = static_cast<std::uint32_t>(t.dynamic_streak);
+    output_[output_count_] = t.out;
+    output_slot_[output_count_] = static_cast<std::uint8_t>(s);
+    ++output_count_;
+  }
+}
+
+std::size_t Tracker::box_history_size(std::size_t i) const noexcept {
+  return i < output_count_ ? tracks_[output_slot_[i]].boxes.size() : 0;
+}
+
+const Box3& Tracker::past_box(std::size_t i, std::size_t age) const noexcept {
+  return tracks_[output_slot_[i]].boxes.at_age(age);
+}
+
+}  // namespace dynamap

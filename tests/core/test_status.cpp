@@ -1,0 +1,62 @@
+#include <cstring>
+
+#include <gtest/gtest.h>
+
+#include "dynamap/core/status.hpp"
+#include "dynamap/core/types.hpp"
+
+namespace dynamap {
+namespace {
+
+TEST(Status, EveryValueHasADistinctName) {
+  const Status all[] = {Status::kOk,
+                        Status::kInvalidArgument,
+                        Status::kNullData,
+                        Status::kWrongSize,
+                        Status::kNonFinite,
+                        Status::kNonUnitQuaternion,
+                        Status::kTimeNotIncreasing,
+                        Status::kCapacityExceeded,
+                        Status::kNotInitialized,
+                        Status::kPermissionDenied,
+                        Status::kUnsupported,
+                        Status::kSystemError,
+                        Status::kEmpty,
+                        Status::kOutOfRange,
+                        Status::kStopped};
+  for (Status a : all) {
+    EXPECT_STRNE(to_string(a), "unknown");
+    for (Status b : all) {
+      if (a != b) {
+        EXPECT_STRNE(to_string(a), to_string(b));
+      }
+    }
+  }
+  EXPECT_TRUE(ok(Status::kOk));
+  EXPECT_FALSE(ok(Status::kWrongSize));
+}
+
+TEST(Validation, PoseChecksFinitenessAndUnitQuaternion) {
+  Pose p;
+  EXPECT_EQ(validate_pose(p), Status::kOk);
+  p.translation.x() = std::nanf("");
+  EXPECT_EQ(validate_pose(p), Status::kNonFinite);
+  p = Pose{};
+  p.rotation.coeffs() << 0.f, 0.f, 0.f, 1.1f;
+  EXPECT_EQ(validate_pose(p), Status::kNonUnitQuaternion);
+}
+
+TEST(Validation, DepthViewChecksNullSizeAndStride) {
+  CameraIntrinsics cam;
+  cam.width = 4;
+  cam.height = 2;
+  std::uint16_t buf[8] = {};
+  DepthView d{buf, 4, 2, 8};
+  EXPECT_EQ(validate_depth(d, cam), Status::kOk);
+  EXPECT_EQ(validate_depth(DepthView{nullptr, 4, 2, 8}, cam), Status::kNullData);
+  EXPECT_EQ(validate_depth(DepthView{buf, 3, 2, 8}, cam), Status::kWrongSize);
+  EXPECT_EQ(validate_depth(DepthView{buf, 4, 2, 6}, cam), Status::kWrongSize);
+}
+
+}  // namespace
+}  // namespace dynamap
