@@ -117,14 +117,16 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   // With map threads, detection runs on the map's team while it carves: it reads only the frame
   // and its own state, so the outputs are the same; its stage time is then its own duration,
   // inside the occupancy stage's (docs/pipeline.md, "Map threads").
-  DetectionJob job{this, &frame, &work, {}, false};
+  DetectionJob job{this, &frame, &work, {}, Status::kOk};
   const bool on_team = config_.map.threads > 1;
   const Status map_status = integrate(frame, work, on_team ? &job : nullptr);
   if (!ok(map_status)) return reject(frame, map_status, out);
   lap(Stage::kOccupancy, clock);
   if (on_team) {
     const std::uint64_t start = clock_();
-    if (job.ever_free_ok) ever_free_.annotate(detections_.data(), detections_.size());
+    if (step_ok(job.ever_free_status, work)) {
+      ever_free_.annotate(detections_.data(), detections_.size());
+    }
     const std::uint64_t annotated = clock_();
     record_stage(Stage::kDetection, job.ns[0] + job.ns[1] + (annotated - start), clock);
     clock.prev = annotated;
@@ -134,7 +136,9 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   }
   // Map refinement against the occupancy map and the clean history.
   const VoxelLookup cleaned{&history_, &CleanHistory::contains_thunk};
-  if (ok(refiner_.refine(map_, cleaned, detections_))) work.refined = refiner_.last_stats().refined;
+  if (step_ok(refiner_.refine(map_, cleaned, detections_), work)) {
+    work.refined = refiner_.last_stats().refined;
+  }
   lap(Stage::kRefinement, clock);
   track(frame, work);
   lap(Stage::kTracking, clock);
@@ -142,9 +146,9 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   lap(Stage::kCleaning, clock);
   // Prediction for dynamic tracks, after the far-field layer has taken this frame's far pixels.
   const std::size_t n_dyn = collect_dynamic(frame);
-  const FarFieldLayer* far = update_far_field(frame, n_dyn, on_team);
+  const FarFieldLayer* far = update_far_field(frame, n_dyn, on_team, work);
   lap(Stage::kFarField, clock);
-  out.num_predictions = predict(frame, n_dyn, far, out);
+  out.num_predictions = predict(frame, n_dyn, far, work, out);
   work.predictions = out.num_predictions;
   lap(Stage::kPrediction, clock);
   finish(frame, clock, work, out);
@@ -172,8 +176,8 @@ void Pipeline::detect_on_team(void* job, unsigned part) noexcept {
   if (part == 0) {
     p.detect_boxes(*j.frame, *j.work);
   } else {
-    j.ever_free_ok =
-        ok(p.ever_free_.integrate(j.frame->depth, p.config_.camera, j.frame->T_map_camera));
+    j.ever_free_status =
+        p.ever_free_.integrate(j.frame->depth, p.config_.camera, j.frame->T_map_camera);
   }
   const std::uint64_t end = p.clock_();
   j.ns[part] = end > start ? end - start : 0;
@@ -200,18 +204,26 @@ Status Pipeline::integrate(const Frame& frame, FrameWork& work, DetectionJob* jo
 void Pipeline::detect(const Frame& frame, FrameWork& work) noexcept {
   detect_boxes(frame, work);
   // Where the camera has seen free space: dynamic evidence for each detection (tracker.md).
-  if (ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera))) {
+  if (step_ok(ever_free_.integrate(frame.depth, config_.camera, frame.T_map_camera), work)) {
     ever_free_.annotate(detections_.data(), detections_.size());
   }
 }
 
+bool Pipeline::step_ok(Status s, FrameWork& work) noexcept {
+  if (ok(s)) return true;
+  ++work.step_errors;
+  ++counters_.step_errors;
+  return false;
+}
+
 void Pipeline::detect_boxes(const Frame& frame, FrameWork& work) noexcept {
-  if (!ok(detector_.detect(frame.depth, config_.camera, frame.T_map_camera, detections_))) {
+  if (!step_ok(detector_.detect(frame.depth, config_.camera, frame.T_map_camera, detections_),
+               work)) {
     detections_.clear();
   }
   counters_.detections_dropped += detector_.last_stats().detections_dropped;
   // Fragments of one person joined first; what is still wider than a person is a group.
-  (void)fragments_.join(detections_);
+  counters_.fragments_joined += fragments_.join(detections_);
   counters_.groups_split +=
       fragments_.split(frame.depth, config_.camera, frame.T_map_camera, detections_);
   work.detections = detections_.size();
@@ -219,13 +231,15 @@ void Pipeline::detect_boxes(const Frame& frame, FrameWork& work) noexcept {
 
 void Pipeline::track(const Frame& frame, FrameWork& work) noexcept {
   const std::uint64_t refused_before = tracker_.refused_tracks();
-  (void)tracker_.update(detections_.data(), detections_.size(), frame.T_map_camera, frame.stamp);
+  (void)step_ok(
+      tracker_.update(detections_.data(), detections_.size(), frame.T_map_camera, frame.stamp),
+      work);
   counters_.tracks_refused += tracker_.refused_tracks() - refused_before;
   work.tracks = tracker_.size();
 }
 
 void Pipeline::clean(const Frame& frame, FrameWork& work) noexcept {
-  (void)cleaner_.clean(tracker_, map_, history_, frame.stamp);
+  (void)step_ok(cleaner_.clean(tracker_, map_, history_, frame.stamp), work);
   work.voxels_cleaned = cleaner_.last_stats().voxels_freed;
   work.dynamic_tracks = cleaner_.last_stats().dynamic_tracks;
 }
@@ -251,8 +265,8 @@ void Pipeline::bin_far_field_on_team(void* pipeline, unsigned part) noexcept {
   static_cast<Pipeline*>(pipeline)->far_field_.bin_columns(part, kFarFieldMaxBinParts);
 }
 
-const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t n_dyn,
-                                                bool on_team) noexcept {
+const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t n_dyn, bool on_team,
+                                                FrameWork& work) noexcept {
   if (!config_.far_field.enabled) return nullptr;
   // The dynamic tracks' pixels are not walls. Walkers not (yet) labelled dynamic are kept out by
   // the layer's wall_height; static tracks are often pieces of a wall, and cutting their pixels
@@ -263,8 +277,9 @@ const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t 
     far_exclusions_[k].radius =
         predictor_input_[k].footprint_radius + config_.predictor.clearance.self_margin;
   }
-  if (!ok(far_field_.begin_update(frame.depth, config_.camera, frame.T_map_camera,
-                                  far_exclusions_.data(), n_ex))) {
+  if (!step_ok(far_field_.begin_update(frame.depth, config_.camera, frame.T_map_camera,
+                                       far_exclusions_.data(), n_ex),
+               work)) {
     return nullptr;
   }
   // With map threads its column binning is shared by the map's team; the grid is written in
@@ -277,20 +292,23 @@ const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t 
 }
 
 std::size_t Pipeline::predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
-                              FrameOutput& out) noexcept {
+                              FrameWork& work, FrameOutput& out) noexcept {
   const OccupancyQuery query = OccupancyQuery::of(map_);
   // The frame's pixels are read in place: the caller keeps them alive for the whole call.
   const DepthEvidence evidence = DepthEvidence::of(frame.depth, config_.camera, frame.T_map_camera);
   const DepthEvidence* depth = config_.predictor.depth_check.enabled ? &evidence : nullptr;
-  if (!ok(markov_.predict(predictor_input_.data(), n_dyn, query, depth, far,
-                          out.predictions.data()))) {
+  if (!step_ok(markov_.predict(predictor_input_.data(), n_dyn, query, depth, far,
+                               out.predictions.data()),
+               work)) {
     return 0;
   }
   if (config_.run_linear_baseline && n_dyn > 0) {
     // Map only: the baseline's straight path is fixed, and its failure counts "no path free"
     // (tools/eval), so a depth-image surface would change its figure by a test that is not the
     // collision of that path with the world.
-    (void)linear_.predict(predictor_input_.data(), n_dyn, query, out.linear_predictions.data());
+    (void)step_ok(
+        linear_.predict(predictor_input_.data(), n_dyn, query, out.linear_predictions.data()),
+        work);
   }
   return n_dyn;
 }

@@ -513,13 +513,14 @@ int run(const Options& o) {
               percentile_ms(decode_ms, 0.99), percentile_ms(decode_ms, 1.0));
   std::printf(
       "  counters: rays dropped %llu, blocks evicted %llu, detections dropped %llu, "
-      "groups split %llu, tracks refused %llu, frames rejected %llu\n",
+      "groups split %llu, tracks refused %llu, frames rejected %llu, step errors %llu\n",
       static_cast<unsigned long long>(c.rays_dropped),
       static_cast<unsigned long long>(c.blocks_evicted),
       static_cast<unsigned long long>(c.detections_dropped),
       static_cast<unsigned long long>(c.groups_split),
       static_cast<unsigned long long>(c.tracks_refused),
-      static_cast<unsigned long long>(c.frames_rejected));
+      static_cast<unsigned long long>(c.frames_rejected),
+      static_cast<unsigned long long>(c.step_errors));
   std::printf("  wall time %.2f s (%.1f frames/s incl. PNG decode and output)\n", elapsed,
               static_cast<double>(n) / std::max(1e-9, elapsed));
   std::printf(

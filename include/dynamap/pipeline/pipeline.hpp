@@ -42,11 +42,13 @@ struct PipelineCounters {
   std::uint64_t rays_dropped = 0;        ///< rays over the occupancy work cap
   std::uint64_t blocks_evicted = 0;      ///< map blocks evicted because the pool was full
   std::uint64_t detections_dropped = 0;  ///< detections over the per-frame capacity
+  std::uint64_t fragments_joined = 0;    ///< detector fragments merged into one (fragments.join)
   std::uint64_t groups_split = 0;        ///< detections split into people (fragments.split_groups)
   std::uint64_t tracks_refused = 0;      ///< tracks not started because the tracker was full
   std::uint64_t budget_overruns = 0;     ///< frames over the whole-frame budget
   std::uint64_t stage_overruns = 0;      ///< stage runs over their own budget (all stages)
   std::uint64_t stride_changes = 0;      ///< adaptive-stride adjustments
+  std::uint64_t step_errors = 0;         ///< stage steps that returned an error (FrameWork)
 };
 
 /// Work done in the last frame, for worst-case tests (each is capped by the configuration).
@@ -59,6 +61,10 @@ struct FrameWork {
   std::size_t dynamic_tracks = 0;
   std::size_t voxels_cleaned = 0;
   std::size_t predictions = 0;
+  /// Stage steps that returned an error on a valid frame (detector, ever-free grid, refiner,
+  /// tracker, cleaner, far field, predictors): the step's output is left empty or as it
+  /// was. 0 in normal operation; counted so that no status is dropped unseen.
+  std::size_t step_errors = 0;
 };
 
 /// Everything one process() call produces, in fixed-size storage (~100 KB): copy it into a
@@ -152,11 +158,13 @@ class Pipeline {
     const Frame* frame = nullptr;
     FrameWork* work = nullptr;
     std::array<std::uint64_t, kParts> ns{};
-    bool ever_free_ok = false;
+    Status ever_free_status = Status::kOk;  ///< part 1's, counted by the caller after the join
   };
   static void detect_on_team(void* job, unsigned part) noexcept;
   static void bin_far_field_on_team(void* pipeline, unsigned part) noexcept;
   void detect_boxes(const Frame& frame, FrameWork& work) noexcept;
+  /// True when `s` is kOk; otherwise counts a step error in `work` and the counters.
+  bool step_ok(Status s, FrameWork& work) noexcept;
   void lap(Stage stage, FrameClock& clock) noexcept;
   void record_stage(Stage stage, std::uint64_t ns, FrameClock& clock) noexcept;
   Status integrate(const Frame& frame, FrameWork& work, DetectionJob* job) noexcept;
@@ -164,10 +172,10 @@ class Pipeline {
   void track(const Frame& frame, FrameWork& work) noexcept;
   void clean(const Frame& frame, FrameWork& work) noexcept;
   std::size_t collect_dynamic(const Frame& frame) noexcept;
-  const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn,
-                                        bool on_team) noexcept;
+  const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn, bool on_team,
+                                        FrameWork& work) noexcept;
   std::size_t predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
-                      FrameOutput& out) noexcept;
+                      FrameWork& work, FrameOutput& out) noexcept;
   void finish(const Frame& frame, const FrameClock& clock, const FrameWork& work,
               FrameOutput& out) noexcept;
 
