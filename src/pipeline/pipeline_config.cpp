@@ -118,7 +118,7 @@ void check_tracker_relations(const PipelineConfig& c, Checker& k) noexcept {
             "must be < tracker.continuity.dynamic_votes");
   k.require((cc.min_size.array() <= cc.max_size.array()).all(), "tracker.continuity.max_size",
             "must be >= tracker.continuity.min_size on every axis");
-  k.require(t.early_votes <= cc.vote_window, "tracker.early_votes",
+  k.require(t.label.early_votes <= cc.vote_window, "tracker.label.early_votes",
             "must be <= tracker.continuity.vote_window");
   k.require(t.early_displacement_frames < cc.displacement_frames,
             "tracker.early_displacement_frames",

@@ -8,9 +8,6 @@ namespace dynamap {
 
 namespace {
 
-/// Saturation of Track::dynamic_frames: far above any hold_min_dynamic_frames in use.
-constexpr std::size_t kMaxHoldCount = std::size_t{1} << 20;
-
 float seconds_between(Stamp earlier, Stamp later) noexcept {
   return static_cast<float>(static_cast<double>(later - earlier) * 1e-9);
 }
@@ -37,26 +34,26 @@ Status validate_detection(const Detection& d) noexcept {
 }  // namespace
 
 Status TrackerConfig::validate() const noexcept {
-  if (!ok(kalman.validate()) || !ok(continuity.validate())) return Status::kInvalidArgument;
+  if (!ok(kalman.validate()) || !ok(continuity.validate()) ||
+      !ok(label.validate(continuity.vote_window))) {
+    return Status::kInvalidArgument;
+  }
   if (!std::isfinite(max_static_share) || max_static_share < 0.f || max_static_share > 1.f) {
     return Status::kInvalidArgument;
   }
-  const bool good = std::isfinite(overlap_threshold) && overlap_threshold > 0.f &&
-                    overlap_threshold <= 1.f && std::isfinite(centre_gate) && centre_gate >= 0.f &&
-                    std::isfinite(size_fix_max_depth) && size_fix_max_depth > 0.f &&
-                    std::isfinite(noise_reference_depth) && noise_reference_depth >= 0.f &&
-                    std::isfinite(max_extent_change_ratio) && std::isfinite(max_round_footprint) &&
-                    max_round_footprint >= 0.f && std::isfinite(max_coast_time) &&
-                    max_coast_time > 0.f && std::isfinite(ever_free_share) &&
-                    ever_free_share > 0.f && ever_free_share <= 1.f &&
+  const bool good =
+      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
+      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
+      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
+      noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
+      std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
+      std::isfinite(max_coast_time) && max_coast_time > 0.f && std::isfinite(ever_free_share) &&
+      ever_free_share > 0.f && ever_free_share <= 1.f &&
 
-                    history_length + 1 <= kMaxTrackHistory &&
-                    continuity.displacement_frames + 1 <= history_length &&
-                    box_history_length >= 1 && box_history_length <= kMaxBoxHistory &&
-                    size_fix_frames >= 1 && early_votes <= continuity.vote_window &&
-                    early_displacement_frames < continuity.displacement_frames &&
-                    image_margin >= 0 && dynamic_hold_frames <= 100000 &&
-                    hold_min_dynamic_frames >= 1 && hold_min_dynamic_frames < kMaxHoldCount;
+      history_length + 1 <= kMaxTrackHistory &&
+      continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
+      box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 &&
+      early_displacement_frames < continuity.displacement_frames && image_margin >= 0;
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 
@@ -150,16 +147,6 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.out.hits = 1;
   t.out.last_seen = stamp;
   t.kf.reset(Eigen::Vector4f(m.center.x(), m.center.y(), 0.f, 0.f), config_.kalman);
-  t.voter.reset();
-  t.dynamic_streak = 0;
-  t.ever_free_streak = 0;
-  t.on_static = false;
-  t.every_vote_dynamic = true;
-  t.was_dynamic = false;
-  t.dynamic_frames = 0;
-  t.held_frames = 0;
-  t.holding = false;
-  t.label = false;
   t.positions.clear();
   t.positions.push(m.center.head<2>(), config_.history_length + 1);
   t.edges.clear();
@@ -219,20 +206,13 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   t.out.missed_frames = 0;
   ++t.out.hits;
   t.out.last_seen = stamp;
-  count_ever_free(t, det);
-  t.on_static = det.static_share > config_.max_static_share;
-  vote(t);
+  t.label.measured(evidence(t, det), config_.continuity, config_.label);
 }
 
-void Tracker::count_ever_free(Track& t, const Detection& det) noexcept {
-  t.ever_free_streak = det.ever_free >= config_.ever_free_share ? t.ever_free_streak + 1 : 0;
-}
-
-bool Tracker::ever_free_label(const Track& t) const noexcept {
-  if (config_.ever_free_frames == 0 || t.ever_free_streak < config_.ever_free_frames) return false;
+bool Tracker::plausible_size(const Eigen::Vector3f& size) const noexcept {
   const ContinuityConfig& cc = config_.continuity;
-  return !cc.check_size || ((t.size.array() >= cc.min_size.array()).all() &&
-                            (t.size.array() <= cc.max_size.array()).all());
+  return !cc.check_size || ((size.array() >= cc.min_size.array()).all() &&
+                            (size.array() <= cc.max_size.array()).all());
 }
 
 void Tracker::update_size(Track& t, const Measurement& m) noexcept {
@@ -271,7 +251,11 @@ void Tracker::update_size(Track& t, const Measurement& m) noexcept {
   }
 }
 
-void Tracker::vote(Track& t) noexcept {
+LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
+  LabelEvidence e;
+  e.in_ever_free = det.ever_free >= config_.ever_free_share;
+  e.plausible_size = plausible_size(t.size);
+  e.slow = t.kf.velocity().norm() < config_.continuity.min_speed;
   // Continuity filter over the measured history (oldest first), then the vote.
   std::array<Eigen::Vector2f, kMaxTrackHistory> ordered;
   const std::size_t n = t.positions.size();
@@ -280,43 +264,15 @@ void Tracker::vote(Track& t) noexcept {
   std::size_t span = config_.continuity.displacement_frames;
   const std::size_t early_span = config_.early_displacement_frames;
   if (n < span + 2 && early_span > 0 && n >= 2 * early_span + 1) span = early_span;
-  if (!continuity_score(ordered.data(), n, span, &c_con)) {
-    t.label = ever_free_label(t);  // no vote yet: only the ever-free evidence
-    hold_label(t);
-    return;
-  }
+  if (!continuity_score(ordered.data(), n, span, &c_con)) return e;  // no vote yet
   t.out.continuity = c_con;
   const float speed = t.kf.velocity().norm();
   const ContinuityFilter filter(config_.continuity);
-  const bool dynamic_vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t) && !t.on_static;
-  t.voter.push(dynamic_vote, config_.continuity);
-  t.dynamic_streak = dynamic_vote ? t.dynamic_streak + 1 : 0;
-  if (!dynamic_vote) t.every_vote_dynamic = false;
-  const bool early = config_.early_votes > 0 && t.dynamic_streak >= config_.early_votes &&
-                     (t.every_vote_dynamic || t.was_dynamic);
-  t.label = t.voter.dynamic() || early || ever_free_label(t);
-  hold_label(t);
-}
-
-void Tracker::hold_label(Track& t) const noexcept {
-  if (t.label) {
-    t.was_dynamic = true;
-    t.holding = false;
-    t.held_frames = 0;
-    if (t.dynamic_frames < kMaxHoldCount) ++t.dynamic_frames;
-    return;
-  }
-  const std::size_t hold = config_.dynamic_hold_frames;
-  if (hold == 0 || t.dynamic_frames < config_.hold_min_dynamic_frames) return;
-  // A hold starts only when the label goes because the track slowed down (a stop); a track
-  // whose votes turn static while it still moves (non-rigid, implausible size) gets none. Once
-  // started it runs on while the person walks off again, until the votes take over.
-  if (!t.holding && !(t.kf.velocity().norm() < config_.continuity.min_speed)) return;
-  t.holding = true;
-  if (t.held_frames < hold) {
-    ++t.held_frames;
-    t.label = true;
-  }
+  // A detection on long-occupied voxels lies on static structure: it votes static.
+  const bool on_static = det.static_share > config_.max_static_share;
+  e.voted = true;
+  e.dynamic_vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t) && !on_static;
+  return e;
 }
 
 Status Tracker::check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
@@ -410,12 +366,7 @@ void Tracker::coast_unmatched() noexcept {
     if (!t.active || frame_.track_used[s]) continue;
     ++t.out.missed_frames;
     t.out.detection = -1;
-    // An early label needs an unbroken run of votes: a gap withdraws it.
-    t.dynamic_streak = 0;
-    t.ever_free_streak = 0;
-    t.on_static = false;
-    if (t.voter.votes() > 0) t.every_vote_dynamic = false;
-    t.label = t.voter.dynamic();
+    t.label.missed();
     if (t.out.missed_frames > config_.max_missed_frames) {
       t.active = false;
       ++dropped_tracks_;
@@ -439,8 +390,10 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp
     start_track(t, frame_.meas[i], stamp);
     t.out.detection = static_cast<std::int32_t>(i);
     t.out.cut = !frame_.meas[i].in_view;
-    count_ever_free(t, dets[i]);
-    t.label = ever_free_label(t);
+    LabelEvidence e;
+    e.in_ever_free = dets[i].ever_free >= config_.ever_free_share;
+    e.plausible_size = plausible_size(t.size);
+    t.label.start(e, config_.label);
     ++free_slot;
   }
 }
@@ -455,10 +408,10 @@ void Tracker::publish() noexcept {
     t.out.box = Box3::from_center_size(Eigen::Vector3f(p.x(), p.y(), t.z_center), t.size);
     t.out.velocity = Eigen::Vector3f(v.x(), v.y(), 0.f);
     t.out.speed = v.norm();
-    t.out.dynamic = t.label;
-    t.out.dynamic_votes = static_cast<std::uint32_t>(t.voter.dynamic_votes());
-    t.out.votes = static_cast<std::uint32_t>(t.voter.votes());
-    t.out.dynamic_streak = static_cast<std::uint32_t>(t.dynamic_streak);
+    t.out.dynamic = t.label.dynamic();
+    t.out.dynamic_votes = static_cast<std::uint32_t>(t.label.voter().dynamic_votes());
+    t.out.votes = static_cast<std::uint32_t>(t.label.voter().votes());
+    t.out.dynamic_streak = static_cast<std::uint32_t>(t.label.dynamic_streak());
     output_[output_count_] = t.out;
     output_slot_[output_count_] = static_cast<std::uint8_t>(s);
     ++output_count_;

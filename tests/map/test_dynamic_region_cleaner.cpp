@@ -172,7 +172,8 @@ TEST(DynamicRegionCleaner, NothingIsClearedBeforeTheWalkerIsDynamic) {
   std::vector<OccupancyMap::VoxelKey> walker;
   // The earliest label: the first vote needs 2 * d + 1 states, then E dynamic votes in a row.
   const TrackerConfig tc;
-  const int first_label = static_cast<int>(2 * tc.early_displacement_frames + tc.early_votes) - 1;
+  const int first_label =
+      static_cast<int>(2 * tc.early_displacement_frames + tc.label.early_votes) - 1;
   for (int f = 0; f < first_label; ++f) s.step(f, &walker);  // too early for any dynamic label
   EXPECT_EQ(s.cleaner.last_stats().dynamic_tracks, 0u);
   for (auto k : walker) EXPECT_EQ(s.map->state(k), Occupancy::kOccupied);

@@ -218,7 +218,7 @@ TEST(EverFreeGrid, TrackerLabelsAWalkerInEverFreeSpaceWithinFiveFrames) {
 TEST(EverFreeGrid, WithoutEvidenceTheTrackerWaitsForItsVotes) {
   // Same walker with the ever-free label off: the continuity votes need more than 5 frames.
   TrackerConfig tc;
-  tc.ever_free_frames = 0;
+  tc.label.ever_free_frames = 0;
   auto tracker = std::make_unique<Tracker>();
   ASSERT_EQ(tracker->init(tc, 640, 480), Status::kOk);
   const Pose pose = camera_pose();

@@ -453,7 +453,7 @@ TEST(TrackerLabels, CleanWalkerIsLabelledEarly) {
     for (const bool early : {true, false}) {
       TrackerConfig config;
       if (!early) {
-        config.early_votes = 0;
+        config.label.early_votes = 0;
         config.early_displacement_frames = 0;
       }
       auto tracker = make_tracker(config);
@@ -498,10 +498,10 @@ TEST(TrackerLabels, FlickeringTrackGetsNoEarlyLabel) {
 // gets it back after `early_votes` consecutive dynamic votes instead of T_c of c.
 TEST(TrackerLabels, WalkerAfterAPauseIsRelabelledEarly) {
   std::array<int, 2> relabel_frames{};
-  for (const std::size_t early : {TrackerConfig{}.early_votes, std::size_t{0}}) {
+  for (const std::size_t early : {TrackerConfig{}.label.early_votes, std::size_t{0}}) {
     TrackerConfig config;
-    config.early_votes = early;
-    config.dynamic_hold_frames = 0;  // the relabelling itself, without the hold
+    config.label.early_votes = early;
+    config.label.dynamic_hold_frames = 0;  // the relabelling itself, without the hold
     auto tracker = make_tracker(config);
     Stamp stamp = 0;
     float y = -1.5f;
@@ -536,7 +536,7 @@ TEST(TrackerLabels, WalkerAfterAPauseIsRelabelledEarly) {
 // hold_min_dynamic_frames (a wall piece that passed a few votes) gets no hold.
 std::vector<bool> labels_of_walker_who_stops(std::size_t hold, int walk_frames) {
   TrackerConfig config;
-  config.dynamic_hold_frames = hold;
+  config.label.dynamic_hold_frames = hold;
   auto tracker = make_tracker(config);
   Stamp stamp = 0;
   float y = -1.5f;
@@ -873,7 +873,7 @@ TEST(TrackerRobustness, BadConfigIsRefused) {
   c.max_round_footprint = -1.f;
   EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
-  c.hold_min_dynamic_frames = 0;
+  c.label.hold_min_dynamic_frames = 0;
   EXPECT_EQ(tracker.init(c, 640, 480), Status::kInvalidArgument);
   c = TrackerConfig{};
   c.image_margin = 240;  // no pixel of a 640 x 480 image is 240 px from every border

@@ -2,7 +2,7 @@
 // in the top view, runs a motion filter per track (by default an IMM of constant velocity and
 // coordinated turn), fixes the obstacle size once it has been fully in view, corrects the
 // near-surface bias of depth boxes, and labels each track static or dynamic with the continuity
-// filter and a voting window. No heap, no exceptions.
+// filter, a voting window and the rules of LabelState. No heap, no exceptions.
 #pragma once
 
 #include <array>
@@ -18,6 +18,7 @@
 #include "dynamap/track/continuity_filter.hpp"
 #include "dynamap/track/detail/history_ring.hpp"
 #include "dynamap/track/kalman_filter.hpp"
+#include "dynamap/track/label_state.hpp"
 
 namespace dynamap {
 
@@ -29,6 +30,7 @@ inline constexpr std::size_t kMaxTrackHistory = 32;
 struct TrackerConfig {
   KalmanConfig kalman{};
   ContinuityConfig continuity{};
+  LabelConfig label{};                ///< early label, ever-free label, hold (label_state.hpp)
   float overlap_threshold = 0.3f;     ///< top-view A_overlap / A_detection for a candidate pair
   float centre_gate = 0.22f;          ///< or a top-view centre distance below this (m)
   std::size_t max_missed_frames = 3;  ///< frames a track coasts on its prediction, then dropped
@@ -61,25 +63,6 @@ struct TrackerConfig {
   /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
   /// visible face's centre is kept. 0 disables the limit.
   float max_round_footprint = 1.0f;
-  /// Early label (0 disables): a track is labelled dynamic as soon as its first `early_votes`
-  /// votes were all dynamic, cast on consecutive frames (no missed frame in between), instead of
-  /// waiting for T_c of c votes. A walker in view is detected every frame and votes dynamic from
-  /// its first vote; the wall pieces and people standing that pass a vote flicker in and out
-  /// and start with short runs of dynamic votes, so the default keeps a margin over the longest
-  /// run measured (docs/tracker.md, "Static or dynamic"). The label is provisional: a static vote
-  /// or a missed frame before the T_c rule holds withdraws it. A track that was dynamic before (a
-  /// walker after a pause) may be re-labelled the same way by `early_votes` consecutive dynamic
-  /// votes.
-  std::size_t early_votes = 4;
-  /// Label hold (0 disables): a track labelled dynamic on at least `hold_min_dynamic_frames`
-  /// frames whose label goes while it is slower than continuity.min_speed (it stopped) keeps the
-  /// label for up to this many measured frames, through the restart until the votes take over.
-  /// A person who stops (at a door, in a queue) is still a person: without the hold the label
-  /// goes with the motion and comes back only after new votes once they walk on, and meanwhile
-  /// the planner sees a static obstacle and the map takes the person in as static. A track
-  /// whose votes turn static while it still moves fast (a sliding wall piece) gets no hold.
-  std::size_t dynamic_hold_frames = 90;
-  std::size_t hold_min_dynamic_frames = 30;  ///< frames labelled dynamic before a hold applies
   /// While the history is shorter than the n + 2 states the continuity filter needs, vote with
   /// displacements this many frames apart once 2 * early_displacement_frames + 1 states exist
   /// (0: no votes before n + 2 states). At 1 m/s, 3 frames are 10 cm, six times the
@@ -115,13 +98,9 @@ struct TrackerConfig {
   /// detection whose footprint differs from the last frame's is handled like a size step
   /// (docs/tracker.md, "Measurement"). No value to validate.
   bool compensate_cut_footprint = true;
-  /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
-  /// observed free (Detection::ever_free >= ever_free_share) on this many measured frames in a
-  /// row is labelled dynamic, whatever its votes: it has moved into empty space. Its size must
-  /// pass the continuity filter's size check. A frame without that evidence ends the run and
-  /// the label falls back to the votes (docs/tracker.md, "Static or dynamic").
-  std::size_t ever_free_frames = 3;
-  float ever_free_share = 0.5f;  ///< share of the detection's surface cells (0, 1]
+  /// A detection lies in ever-free space (the evidence of LabelConfig::ever_free_frames) when
+  /// at least this share of its surface cells (0, 1] is ever free (Detection::ever_free).
+  float ever_free_share = 0.5f;
   /// A detection most of whose voxels the map has held occupied for a long time
   /// (Detection::static_share above this) lies on static structure: its apparent motion is the
   /// camera's view sliding along it, and it votes static (1: off; docs/tracker.md).
@@ -192,7 +171,7 @@ class Tracker {
   struct Track {
     TrackedObstacle out;
     TrackFilter kf;
-    DynamicVoter voter;
+    LabelState label;
     HistoryRing<Eigen::Vector2f, kMaxTrackHistory> positions;  // measured, bias-corrected
     HistoryRing<Box3, kMaxBoxHistory> boxes;
     HistoryRing<Eigen::Vector4f, kMaxTrackHistory> edges;  // detection boxes' top-view min, max
@@ -203,15 +182,6 @@ class Tracker {
     Eigen::Vector3f corrected_with = Eigen::Vector3f::Zero();  // size behind the last correction
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
     std::size_t in_view_frames = 0;
-    std::size_t dynamic_streak = 0;    // consecutive dynamic votes on consecutive frames
-    std::size_t ever_free_streak = 0;  // measured frames in a row in ever-free space
-    bool on_static = false;            // last detection lay on long-occupied voxels
-    bool every_vote_dynamic = true;    // no static vote and no missed frame since the first vote
-    bool was_dynamic = false;          // labelled dynamic at some time
-    std::size_t dynamic_frames = 0;    // measured frames labelled dynamic (saturates)
-    std::size_t held_frames = 0;       // measured frames the label has been held
-    bool holding = false;              // a hold started (the label went while slow)
-    bool label = false;
     bool active = false;
   };
   struct Measurement {  // a detection after bias correction
@@ -250,12 +220,10 @@ class Tracker {
   void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
                      Stamp stamp) noexcept;
   // The steps of correct_track after the filter update: size estimate (freeze, growth) and
-  // the continuity filter's vote with the label.
+  // the evidence for the label (the continuity filter's vote among it).
   void update_size(Track& t, const Measurement& m) noexcept;
-  void vote(Track& t) noexcept;
-  void hold_label(Track& t) const noexcept;  ///< dynamic_hold_frames after the vote
-  void count_ever_free(Track& t, const Detection& det) noexcept;
-  bool ever_free_label(const Track& t) const noexcept;
+  LabelEvidence evidence(Track& t, const Detection& det) const noexcept;
+  bool plausible_size(const Eigen::Vector3f& size) const noexcept;
   void publish() noexcept;
 
   TrackerConfig config_{};

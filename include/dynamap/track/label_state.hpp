@@ -1,0 +1,108 @@
+// The static/dynamic label of one track as a state machine (docs/tracker.md, "Static or
+// dynamic"). The tracker turns each frame into events; this class alone decides the label:
+//
+//   start(e)    -> kDynamic if the ever-free run is already long enough, else kStatic
+//   measured(e) -> kDynamic    on evidence: T_c of c votes, an early run of dynamic votes, or an
+//                              ever-free run (before the first vote: the ever-free run only)
+//               -> kHeld       no evidence, hold allowed (labelled dynamic on enough frames) and
+//                              either already holding or slower than v_min; up to hold frames
+//               -> kHoldSpent  no evidence, the hold ran out: static until new evidence
+//               -> kStatic     no evidence and no hold
+//   missed()    -> kCoasting   only the vote window's label; runs of evidence are broken, a hold
+//                              in progress resumes at the next measured frame
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "dynamap/core/status.hpp"
+#include "dynamap/track/continuity_filter.hpp"
+
+namespace dynamap {
+
+/// Saturation of the count of frames labelled dynamic: far above any hold_min_dynamic_frames.
+inline constexpr std::size_t kMaxLabelCount = std::size_t{1} << 20;
+
+/// The label rules beyond the vote window of ContinuityConfig (docs/tracker.md).
+struct LabelConfig {
+  /// Early label (0 disables): a track is labelled dynamic as soon as its first `early_votes`
+  /// votes were all dynamic, cast on consecutive frames (no missed frame in between), instead of
+  /// waiting for T_c of c votes. A walker in view is detected every frame and votes dynamic from
+  /// its first vote; the wall pieces and people standing that pass a vote flicker in and out
+  /// and start with short runs of dynamic votes, so the default keeps a margin over the longest
+  /// run measured (docs/tracker.md, "Static or dynamic"). The label is provisional: a static vote
+  /// or a missed frame before the T_c rule holds withdraws it. A track that was dynamic before (a
+  /// walker after a pause) may be re-labelled the same way by `early_votes` consecutive dynamic
+  /// votes.
+  std::size_t early_votes = 4;
+  /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
+  /// observed free (TrackerConfig::ever_free_share) on this many measured frames in a row is
+  /// labelled dynamic, whatever its votes: it has moved into empty space. Its size must pass
+  /// the continuity filter's size check. A frame without that evidence ends the run and the
+  /// label falls back to the votes (docs/tracker.md, "Static or dynamic").
+  std::size_t ever_free_frames = 3;
+  /// Label hold (0 disables): a track labelled dynamic on at least `hold_min_dynamic_frames`
+  /// frames whose label goes while it is slower than continuity.min_speed (it stopped) keeps the
+  /// label for up to this many measured frames, through the restart until the votes take over.
+  /// A person who stops (at a door, in a queue) is still a person: without the hold the label
+  /// goes with the motion and comes back only after new votes once they walk on, and meanwhile
+  /// the planner sees a static obstacle and the map takes the person in as static. A track
+  /// whose votes turn static while it still moves fast (a sliding wall piece) gets no hold.
+  std::size_t dynamic_hold_frames = 90;
+  std::size_t hold_min_dynamic_frames = 30;  ///< frames labelled dynamic before a hold applies
+
+  /// kInvalidArgument unless early_votes <= vote_window, dynamic_hold_frames <= 100000 and
+  /// 1 <= hold_min_dynamic_frames < kMaxLabelCount.
+  Status validate(std::size_t vote_window) const noexcept;
+};
+
+/// What one frame tells about a track; the tracker computes it, LabelState weighs it.
+struct LabelEvidence {
+  bool voted = false;          ///< the continuity filter could score this frame (history long)
+  bool dynamic_vote = false;   ///< and the frame voted dynamic (ContinuityFilter and the tracker)
+  bool in_ever_free = false;   ///< the detection lay in ever-free space
+  bool plausible_size = true;  ///< the track's size passes the size check (or the check is off)
+  bool slow = false;           ///< the filtered speed is below continuity.min_speed
+};
+
+/// The states of LabelState: why a track carries its label.
+enum class LabelMode : std::uint8_t {
+  kStatic,     ///< no evidence of motion and no hold (a new track starts here)
+  kDynamic,    ///< evidence this frame: votes, an early run or an ever-free run
+  kHeld,       ///< no evidence, but a stop of a track that was dynamic: still labelled dynamic
+  kHoldSpent,  ///< the hold ran out: static, and no new hold until new evidence
+  kCoasting,   ///< no detection this frame: the vote window's label alone
+};
+
+/// One track's label: the vote window, the runs of evidence, the hold and the mode. Fixed size.
+class LabelState {
+ public:
+  /// A new track from its first detection (no vote yet, does not count towards the hold).
+  void start(const LabelEvidence& e, const LabelConfig& config) noexcept;
+  /// A frame with a matched detection.
+  void measured(const LabelEvidence& e, const ContinuityConfig& continuity,
+                const LabelConfig& config) noexcept;
+  /// A frame without a matched detection.
+  void missed() noexcept;
+
+  /// The label: dynamic in kDynamic and kHeld, the vote window's label in kCoasting.
+  bool dynamic() const noexcept;
+  LabelMode mode() const noexcept { return mode_; }
+  const DynamicVoter& voter() const noexcept { return voter_; }
+  std::size_t dynamic_streak() const noexcept { return dynamic_streak_; }
+  std::size_t held_frames() const noexcept { return held_frames_; }
+
+ private:
+  bool ever_free_run(const LabelEvidence& e, const LabelConfig& config) const noexcept;
+  void hold_or_drop(const LabelEvidence& e, const LabelConfig& config) noexcept;
+
+  DynamicVoter voter_;
+  LabelMode mode_ = LabelMode::kStatic;
+  std::size_t dynamic_streak_ = 0;    ///< dynamic votes in a row on consecutive frames
+  std::size_t ever_free_streak_ = 0;  ///< measured frames in a row in ever-free space
+  std::size_t dynamic_frames_ = 0;    ///< frames measured() left in kDynamic (saturates)
+  std::size_t held_frames_ = 0;       ///< measured frames of the current hold (0: none)
+  bool every_vote_dynamic_ = true;    ///< no static vote and no missed frame since the first vote
+};
+
+}  // namespace dynamap

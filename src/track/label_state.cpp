@@ -1,0 +1,82 @@
+#include "dynamap/track/label_state.hpp"
+
+namespace dynamap {
+
+Status LabelConfig::validate(std::size_t vote_window) const noexcept {
+  const bool good = early_votes <= vote_window && dynamic_hold_frames <= 100000 &&
+                    hold_min_dynamic_frames >= 1 && hold_min_dynamic_frames < kMaxLabelCount;
+  return good ? Status::kOk : Status::kInvalidArgument;
+}
+
+void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexcept {
+  *this = LabelState{};
+  ever_free_streak_ = e.in_ever_free ? 1 : 0;
+  mode_ = ever_free_run(e, config) ? LabelMode::kDynamic : LabelMode::kStatic;
+}
+
+void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& continuity,
+                          const LabelConfig& config) noexcept {
+  ever_free_streak_ = e.in_ever_free ? ever_free_streak_ + 1 : 0;
+  bool votes_say = false;
+  if (e.voted) {
+    voter_.push(e.dynamic_vote, continuity);
+    dynamic_streak_ = e.dynamic_vote ? dynamic_streak_ + 1 : 0;
+    if (!e.dynamic_vote) every_vote_dynamic_ = false;
+    // The early run counts for a track whose votes were all dynamic, or one dynamic before.
+    const bool early = config.early_votes > 0 && dynamic_streak_ >= config.early_votes &&
+                       (every_vote_dynamic_ || dynamic_frames_ > 0);
+    votes_say = voter_.dynamic() || early;
+  }
+  if (votes_say || ever_free_run(e, config)) {
+    mode_ = LabelMode::kDynamic;
+    held_frames_ = 0;
+    if (dynamic_frames_ < kMaxLabelCount) ++dynamic_frames_;
+    return;
+  }
+  hold_or_drop(e, config);
+}
+
+void LabelState::hold_or_drop(const LabelEvidence& e, const LabelConfig& config) noexcept {
+  const std::size_t hold = config.dynamic_hold_frames;
+  const bool holding = held_frames_ > 0;
+  // A hold starts only on a track slower than v_min (a stop); one whose votes turn static while
+  // it still moves (non-rigid, implausible size) gets none. Once started it runs on while the
+  // person walks off again, until the votes take over or it runs out.
+  if (hold == 0 || dynamic_frames_ < config.hold_min_dynamic_frames || (!holding && !e.slow)) {
+    mode_ = LabelMode::kStatic;
+  } else if (held_frames_ < hold) {
+    ++held_frames_;
+    mode_ = LabelMode::kHeld;
+  } else {
+    mode_ = LabelMode::kHoldSpent;
+  }
+}
+
+void LabelState::missed() noexcept {
+  // The early and ever-free labels need an unbroken run: a gap ends both runs.
+  dynamic_streak_ = 0;
+  ever_free_streak_ = 0;
+  if (voter_.votes() > 0) every_vote_dynamic_ = false;
+  mode_ = LabelMode::kCoasting;
+}
+
+bool LabelState::dynamic() const noexcept {
+  switch (mode_) {
+    case LabelMode::kDynamic:
+    case LabelMode::kHeld:
+      return true;
+    case LabelMode::kCoasting:
+      return voter_.dynamic();
+    case LabelMode::kStatic:
+    case LabelMode::kHoldSpent:
+      break;
+  }
+  return false;
+}
+
+bool LabelState::ever_free_run(const LabelEvidence& e, const LabelConfig& config) const noexcept {
+  return config.ever_free_frames > 0 && ever_free_streak_ >= config.ever_free_frames &&
+         e.plausible_size;
+}
+
+}  // namespace dynamap

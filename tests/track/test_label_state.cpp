@@ -1,0 +1,328 @@
+// One test per transition of LabelState (include/dynamap/track/label_state.hpp).
+#include <gtest/gtest.h>
+
+#include "dynamap/track/label_state.hpp"
+
+namespace dynamap {
+namespace {
+
+LabelEvidence vote(bool dynamic, bool slow = false) {
+  LabelEvidence e;
+  e.voted = true;
+  e.dynamic_vote = dynamic;
+  e.slow = slow;
+  return e;
+}
+
+LabelEvidence no_vote(bool in_ever_free, bool plausible_size = true) {
+  LabelEvidence e;
+  e.in_ever_free = in_ever_free;
+  e.plausible_size = plausible_size;
+  return e;
+}
+
+LabelConfig plain() {  // votes only: no early label, no ever-free label, no hold
+  LabelConfig c;
+  c.early_votes = 0;
+  c.ever_free_frames = 0;
+  c.dynamic_hold_frames = 0;
+  return c;
+}
+
+class LabelStateTest : public ::testing::Test {
+ protected:
+  void measure(const LabelEvidence& e, std::size_t times = 1) {
+    for (std::size_t i = 0; i < times; ++i) s.measured(e, cc, lc);
+  }
+  // Labels the track dynamic by the vote window (T_c dynamic votes) and keeps it so.
+  void make_dynamic_by_votes(std::size_t frames) {
+    measure(vote(true), frames);
+    ASSERT_EQ(s.mode(), LabelMode::kDynamic);
+  }
+
+  ContinuityConfig cc{};
+  LabelConfig lc = plain();
+  LabelState s;
+};
+
+TEST_F(LabelStateTest, StartIsStaticWithoutEverFreeRun) {
+  lc.ever_free_frames = 1;
+  s.start(no_vote(false), lc);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  EXPECT_FALSE(s.dynamic());
+  s.start(no_vote(true, /*plausible_size=*/false), lc);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  lc.ever_free_frames = 2;  // one frame is not a run of two
+  s.start(no_vote(true), lc);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, StartIsDynamicOnAnEverFreeRunOfOne) {
+  lc.ever_free_frames = 1;
+  s.start(no_vote(true), lc);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  EXPECT_TRUE(s.dynamic());
+}
+
+TEST_F(LabelStateTest, StartResetsEverything) {
+  make_dynamic_by_votes(cc.dynamic_votes);
+  s.start(no_vote(false), lc);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  EXPECT_EQ(s.voter().votes(), 0u);
+  EXPECT_EQ(s.dynamic_streak(), 0u);
+  EXPECT_EQ(s.held_frames(), 0u);
+}
+
+TEST_F(LabelStateTest, StartDoesNotCountTowardsTheHold) {
+  lc.ever_free_frames = 1;
+  lc.dynamic_hold_frames = 5;
+  lc.hold_min_dynamic_frames = 1;
+  s.start(no_vote(true), lc);
+  ASSERT_TRUE(s.dynamic());
+  measure(vote(false, /*slow=*/true));  // the label goes while slow: no hold, never counted
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, VoteWindowLabelsDynamicAtTcVotes) {
+  s.start(no_vote(false), lc);
+  measure(vote(true), cc.dynamic_votes - 1);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  EXPECT_TRUE(s.dynamic());
+}
+
+TEST_F(LabelStateTest, VoteWindowHysteresisThenStatic) {
+  s.start(no_vote(false), lc);
+  make_dynamic_by_votes(cc.vote_window);
+  // Dynamic votes fall out of the window: the label stays until <= static_votes are left.
+  measure(vote(false), cc.vote_window - cc.static_votes - 1);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  measure(vote(false));
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  EXPECT_FALSE(s.dynamic());
+}
+
+TEST_F(LabelStateTest, EarlyRunLabelsDynamic) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(vote(true), 3);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  EXPECT_EQ(s.dynamic_streak(), 4u);
+}
+
+TEST_F(LabelStateTest, EarlyRunNeedsEveryVoteDynamic) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(vote(false));
+  measure(vote(true), 6);  // never dynamic before: a later run does not count
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, EarlyLabelWithdrawnByAStaticVote) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(vote(true), 4);
+  ASSERT_EQ(s.mode(), LabelMode::kDynamic);
+  measure(vote(false));
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  EXPECT_EQ(s.dynamic_streak(), 0u);
+}
+
+TEST_F(LabelStateTest, EarlyLabelWithdrawnByAMissedFrame) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(vote(true), 4);
+  ASSERT_TRUE(s.dynamic());
+  s.missed();
+  EXPECT_EQ(s.mode(), LabelMode::kCoasting);
+  EXPECT_FALSE(s.dynamic());  // the vote window alone: 4 of T_c votes
+  EXPECT_EQ(s.dynamic_streak(), 0u);
+  measure(vote(true), 3);  // a new run: dynamic before, so it counts once it is 4 long
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+}
+
+TEST_F(LabelStateTest, MissedFrameAfterAVoteEndsTheFirstEarlyRun) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(vote(true), 2);
+  s.missed();  // never labelled dynamic: the early label needs a new track now
+  measure(vote(true), 6);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, MissedFrameBeforeTheFirstVoteKeepsTheEarlyRun) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  s.missed();
+  measure(vote(true), 4);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+}
+
+TEST_F(LabelStateTest, EarlyRunRelabelsATrackThatWasDynamic) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  make_dynamic_by_votes(cc.dynamic_votes);
+  measure(vote(false), cc.vote_window);  // static again
+  ASSERT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true), 3);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+}
+
+TEST_F(LabelStateTest, EverFreeRunLabelsDynamicBeforeAnyVote) {
+  lc.ever_free_frames = 3;
+  s.start(no_vote(true), lc);
+  measure(no_vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(no_vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  measure(no_vote(false));  // the run ends: the votes (none yet) decide
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, EverFreeRunNeedsAPlausibleSize) {
+  lc.ever_free_frames = 2;
+  s.start(no_vote(true), lc);
+  measure(no_vote(true, /*plausible_size=*/false), 5);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, EverFreeRunOverridesStaticVotes) {
+  lc.ever_free_frames = 2;
+  s.start(no_vote(false), lc);
+  LabelEvidence e = vote(false);
+  e.in_ever_free = true;
+  measure(e);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(e);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+}
+
+TEST_F(LabelStateTest, MissedFrameEndsTheEverFreeRun) {
+  lc.ever_free_frames = 2;
+  s.start(no_vote(true), lc);
+  s.missed();
+  measure(no_vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);  // a run of 1 after the gap
+  measure(no_vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+}
+
+TEST_F(LabelStateTest, CoastingKeepsOnlyTheVoteWindowLabel) {
+  s.start(no_vote(false), lc);
+  make_dynamic_by_votes(cc.dynamic_votes);
+  s.missed();
+  EXPECT_EQ(s.mode(), LabelMode::kCoasting);
+  EXPECT_TRUE(s.dynamic());
+  s.missed();
+  EXPECT_TRUE(s.dynamic());
+  LabelState fresh;
+  fresh.missed();
+  EXPECT_FALSE(fresh.dynamic());
+}
+
+class LabelHoldTest : public LabelStateTest {
+ protected:
+  void SetUp() override {
+    lc.dynamic_hold_frames = 3;
+    lc.hold_min_dynamic_frames = 2;
+    s.start(no_vote(false), lc);
+    make_dynamic_by_votes(cc.vote_window);                       // 5 frames dynamic >= 2
+    measure(vote(false), cc.vote_window - cc.static_votes - 1);  // still dynamic (hysteresis)
+    ASSERT_EQ(s.mode(), LabelMode::kDynamic);
+  }
+};
+
+TEST_F(LabelHoldTest, SlowTrackLosingItsLabelIsHeld) {
+  measure(vote(false, /*slow=*/true));
+  EXPECT_EQ(s.mode(), LabelMode::kHeld);
+  EXPECT_TRUE(s.dynamic());
+  EXPECT_EQ(s.held_frames(), 1u);
+}
+
+TEST_F(LabelHoldTest, FastTrackLosingItsLabelIsNotHeld) {
+  measure(vote(false, /*slow=*/false));
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  EXPECT_FALSE(s.dynamic());
+  measure(vote(false, /*slow=*/true));  // slows down later: the hold starts then
+  EXPECT_EQ(s.mode(), LabelMode::kHeld);
+}
+
+TEST_F(LabelHoldTest, HoldRunsOnWhileFastAndThenIsSpent) {
+  measure(vote(false, true));
+  measure(vote(false, false), 2);  // walks off again: the hold runs on
+  EXPECT_EQ(s.mode(), LabelMode::kHeld);
+  EXPECT_EQ(s.held_frames(), 3u);
+  measure(vote(false, true));
+  EXPECT_EQ(s.mode(), LabelMode::kHoldSpent);
+  EXPECT_FALSE(s.dynamic());
+  measure(vote(false, true), 5);  // no second hold while slow
+  EXPECT_EQ(s.mode(), LabelMode::kHoldSpent);
+}
+
+TEST_F(LabelHoldTest, EvidenceEndsTheHold) {
+  lc.early_votes = 2;
+  measure(vote(false, true));
+  ASSERT_EQ(s.mode(), LabelMode::kHeld);
+  measure(vote(true), 2);  // was dynamic before: an early run relabels
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  EXPECT_EQ(s.held_frames(), 0u);
+  measure(vote(false, true));  // a new hold may start
+  EXPECT_EQ(s.mode(), LabelMode::kHeld);
+}
+
+TEST_F(LabelHoldTest, MissedFramesDoNotExtendTheHold) {
+  measure(vote(false, true));
+  ASSERT_EQ(s.held_frames(), 1u);
+  s.missed();
+  EXPECT_EQ(s.mode(), LabelMode::kCoasting);
+  EXPECT_FALSE(s.dynamic());  // the vote window says static
+  EXPECT_EQ(s.held_frames(), 1u);
+  measure(vote(false, false));  // the hold resumes although fast
+  EXPECT_EQ(s.mode(), LabelMode::kHeld);
+  EXPECT_EQ(s.held_frames(), 2u);
+}
+
+TEST_F(LabelHoldTest, NoHoldWhenDisabled) {
+  lc.dynamic_hold_frames = 0;
+  measure(vote(false, true));
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST(LabelStateHold, NoHoldBeforeEnoughDynamicFrames) {
+  const ContinuityConfig cc{};
+  LabelConfig lc = plain();
+  lc.early_votes = 2;
+  lc.dynamic_hold_frames = 10;
+  lc.hold_min_dynamic_frames = 3;
+  LabelState s;
+  s.start(no_vote(false), lc);
+  s.measured(vote(true), cc, lc);
+  s.measured(vote(true), cc, lc);
+  s.measured(vote(true), cc, lc);  // 2 frames labelled dynamic (early)
+  ASSERT_EQ(s.mode(), LabelMode::kDynamic);
+  s.measured(vote(false, true), cc, lc);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST(LabelConfig, Validate) {
+  EXPECT_EQ(LabelConfig{}.validate(20), Status::kOk);
+  LabelConfig c;
+  c.early_votes = 21;
+  EXPECT_EQ(c.validate(20), Status::kInvalidArgument);
+  c = LabelConfig{};
+  c.hold_min_dynamic_frames = 0;
+  EXPECT_EQ(c.validate(20), Status::kInvalidArgument);
+  c = LabelConfig{};
+  c.dynamic_hold_frames = 100001;
+  EXPECT_EQ(c.validate(20), Status::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace dynamap
