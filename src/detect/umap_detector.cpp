@@ -96,20 +96,6 @@ void add_band_row(const std::uint16_t* __restrict p, int n, std::uint16_t lo, st
   *row_moment = moment;
 }
 
-// Axis-aligned bounds of the 8 corners of `b` after the rigid transform.
-Box3 transform_box(const Box3& b, const Pose& T) noexcept {
-  Box3 r;
-  r.min.setConstant(std::numeric_limits<float>::max());
-  r.max.setConstant(std::numeric_limits<float>::lowest());
-  for (int i = 0; i < 8; ++i) {
-    const Eigen::Vector3f c((i & 1) ? b.max.x() : b.min.x(), (i & 2) ? b.max.y() : b.min.y(),
-                            (i & 4) ? b.max.z() : b.min.z());
-    const Eigen::Vector3f p = T.apply(c);
-    r.min = r.min.cwiseMin(p);
-    r.max = r.max.cwiseMax(p);
-  }
-  return r;
-}
 }  // namespace
 
 Status UMapDetector::init(const UMapDetectorConfig& config) noexcept {
@@ -206,7 +192,7 @@ void UMapDetector::boxes_from_groups(const DepthView& depth, const CameraIntrins
       ++stats_.detections_dropped;
       continue;
     }
-    d->box = config_.box_from_surface_points ? box_map : transform_box(box_cam, T_map_camera);
+    d->box = box_map;
     d->raw_box = d->box;
     d->image_box = ibox;
     d->near_depth = near_depth;

@@ -147,7 +147,7 @@ void MapRefiner::refine_one(const OccupancyMap& map, const VoxelLookup& clean,
 }
 
 void MapRefiner::apply_support(Box3 refined, std::size_t support, Detection& d) noexcept {
-  if (config_.tighten_only && support > 0) {
+  if (support > 0) {
     refined.min = refined.min.cwiseMax(d.raw_box.min);
     refined.max = refined.max.cwiseMin(d.raw_box.max);
     // Support beside but not overlapping the raw box on some axis: nothing to cut there.

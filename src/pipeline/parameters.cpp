@@ -124,7 +124,6 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(detector.max_width), X, "m", 0, kInf, kOpen, kOpen, "wider groups are background"},
     {DYNAMAP_FIELD(detector.max_height), X, "m", 0, kInf, kOpen, kOpen, "taller groups are background"},
     {DYNAMAP_FIELD(detector.max_depth_extent), X, "m", 0, kInf, kOpen, kOpen, "groups deeper than this are background (a wall at a grazing angle)"},
-    {DYNAMAP_FIELD(detector.box_from_surface_points), X, "", 0, 1, kClosed, kClosed, "map-frame box from the mean surface points (false: original corner transform)"},
     {DYNAMAP_FIELD(detector.use_fast_histogram), X, "", 0, 1, kClosed, kClosed, "NEON/vectorised U-map histogram (false: scalar reference)"},
     {DYNAMAP_FIELD(detector.use_fast_measure), X, "", 0, 1, kClosed, kClosed, "vectorisable height search and box sums (false: per-pixel reference loops)"},
     // Refiner.
@@ -132,7 +131,6 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(refiner.floor_margin), X, "m", 0, kInf, kClosed, kOpen, "voxels below ground_height + this are floor"},
     {DYNAMAP_FIELD(refiner.max_voxels_per_box), C, "", 1, kMaxRefinerVoxelsPerBox, kClosed, kClosed, "work cap: voxels examined per box and pass"},
     {DYNAMAP_FIELD(refiner.min_support_voxels), X, "", 1, kInf, kClosed, kOpen, "fewer occupied voxels keep the raw box"},
-    {DYNAMAP_FIELD(refiner.tighten_only), X, "", 0, 1, kClosed, kClosed, "the map only cuts the raw box (false: voxel bounds, original)"},
     {DYNAMAP_FIELD(refiner.static_frames), X, "frames", 0, kMaxStaticFrames, kClosed, kClosed, "a voxel occupied this long counts as long-seen for Detection::static_share"},
     // Tracker: Kalman filter.
     {DYNAMAP_FIELD(tracker.kalman.p0_position), X, "m^2", 0, kInf, kOpen, kOpen, "initial position variance"},

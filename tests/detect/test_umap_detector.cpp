@@ -279,40 +279,11 @@ TEST(UMapDetector, ObstaclesCutByImageEdges) {
   }
 }
 
-TEST(UMapDetector, MapBoxIsBoundOfAllEightTransformedCorners) {
-  const CameraIntrinsics cam = camera();
-  SyntheticScene scene;
-  scene.boxes = {box_at(-0.3f, 0.2f, -0.4f, 0.3f, 2.5f, 2.9f)};
-  scene.wall_z = 6.f;
-  const auto img = test::render_depth(scene, cam);
-  UMapDetectorConfig cfg;
-  cfg.box_from_surface_points = false;  // the original rule (the default is tested below)
-  auto det = make_detector(cfg);
-  const DetectionList a = run(*det, img, cam, kPose);
-  ASSERT_EQ(a.size(), 1u);
-  // Camera-frame box recovered exactly through the axis-permuting pose.
-  const Eigen::Vector3f c0 = kPose.rotation.inverse() * (a[0].box.min - kPose.translation);
-  const Eigen::Vector3f c1 = kPose.rotation.inverse() * (a[0].box.max - kPose.translation);
-  const Eigen::Vector3f cam_min = c0.cwiseMin(c1), cam_max = c0.cwiseMax(c1);
-  // Same image, camera yawed 35 degrees and pitched 10 degrees about the map axes.
-  Pose turned = kPose;
-  turned.rotation = (Eigen::AngleAxisf(0.61f, Eigen::Vector3f::UnitZ()) *
-                     Eigen::AngleAxisf(0.17f, Eigen::Vector3f::UnitY()) * kPose.rotation)
-                        .normalized();
-  const DetectionList b = run(*det, img, cam, turned);
-  ASSERT_EQ(b.size(), 1u);
-  const Box3 expect = test::box_to_map(cam_min, cam_max, turned);
-  EXPECT_TRUE(b[0].box.min.isApprox(expect.min, 1e-4f));
-  EXPECT_TRUE(b[0].box.max.isApprox(expect.max, 1e-4f));
-  // A rotated box's bounds are strictly larger than the centre-only guess would suggest.
-  EXPECT_GT(b[0].box.size().x(), a[0].box.size().x());
-}
-
 // An upright 0.5 x 0.5 x 1.8 m box (map frame) 3 m ahead of a camera 1.3 m high pitched 10
-// degrees down, in front of a wall at 8 m. The default map box comes from mean surface points:
-// along the ray it spans the visible front face only (thinner than a voxel), at the true
-// distance; laterally and vertically it matches the box. The 8-corner rule stretches the box
-// along the ray by about 1.8 m * sin(10 deg) = 0.31 m.
+// degrees down, in front of a wall at 8 m. The map box comes from mean surface points: along
+// the ray it spans the visible front face only (thinner than a voxel), at the true distance;
+// laterally and vertically it matches the box (the bounds of the camera box's 8 transformed
+// corners would stretch it along the ray by about 1.8 m * sin(10 deg) = 0.31 m).
 TEST(UMapDetector, PitchedCameraKeepsUprightObjectsDepthExtent) {
   const CameraIntrinsics cam = camera();
   const float pitch = 10.f * 3.14159265f / 180.f;
@@ -361,13 +332,6 @@ TEST(UMapDetector, PitchedCameraKeepsUprightObjectsDepthExtent) {
   EXPECT_NEAR(b.max.y(), bmax.y(), 0.03f);
   EXPECT_NEAR(b.max.z(), bmax.z(), 0.05f);
   EXPECT_LT(b.min.z(), 0.1f);
-
-  UMapDetectorConfig corners;
-  corners.box_from_surface_points = false;
-  auto det8 = make_detector(corners);
-  const DetectionList out8 = run(*det8, img, cam, pose);
-  ASSERT_EQ(out8.size(), 1u);
-  EXPECT_GT(out8[0].box.size().x(), 0.25f);  // the stretch the default avoids
 }
 
 TEST(UMapDetector, DropsAndCountsDetectionsOverCapacity) {

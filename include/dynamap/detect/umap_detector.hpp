@@ -53,11 +53,6 @@ struct UMapDetectorConfig {
   /// Groups whose column-mean depths span more than this (metres along the ray) are background:
   /// a wall seen at a grazing angle, not an object to track (it stays in the map).
   float max_depth_extent = 1.5f;
-  // map-frame box: true places every column (row) at the mean map-frame point of its in-band
-  // pixels, so an upright object seen by a pitched camera keeps its true depth extent; false
-  // takes the bounds of the camera-frame box's 8 transformed corners (original method, which
-  // stretches the box along the ray by height * sin(pitch)).
-  bool box_from_surface_points = true;
   // bounded work
   std::size_t max_candidates = 64;  ///< height searches per frame (nearest groups first)
   std::size_t max_detections = kMaxDetections;

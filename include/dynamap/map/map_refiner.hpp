@@ -38,10 +38,6 @@ struct MapRefinerConfig {
   float floor_margin = 0.2f;  ///< voxels whose centre is below ground + margin are ignored
   std::size_t max_voxels_per_box = 16384;  ///< work cap per box and per pass (map, history)
   std::size_t min_support_voxels = 1;      ///< fewer support voxels -> keep the raw box
-  /// true: the refined box is the raw box cut to the support's voxel bounds (the map removes
-  /// what is not there but never adds its 10 cm quantisation to a box that averages thousands
-  /// of pixels); false: the support's voxel bounds alone (original method).
-  bool tighten_only = true;
   /// Detection::static_share counts voxels occupied without a break for at least this many
   /// frames (1 s): longer than a walking body stays on a voxel.
   std::size_t static_frames = 30;
