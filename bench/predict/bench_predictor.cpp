@@ -1,9 +1,8 @@
 // Prediction time per frame: 10 dynamic obstacles walking through a cluttered static map
 // (pillars and wall segments in a 12 m x 12 m room whose air is observed free, real
-// OccupancyMap), Markov predictor with l = 5 and l = 15, with and without the observed-free
-// sweep (unknown_weight < 1), with and without the depth-image check (a 640x480 frame of the
-// room's walls, pillars and segments rendered from its west wall), and the linear baseline. One
-// iteration = one frame = predict() for all 10.
+// OccupancyMap), Markov predictor with l = 5 and l = 15, with and without the far-field layer
+// (fed a 640x480 frame of the room's walls, pillars and segments rendered from its west wall),
+// and the linear baseline. One iteration = one frame = predict() for all 10.
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -32,7 +31,7 @@ struct Scene {
   std::array<std::array<ObstacleState, kObstacles>, kFrames> frames{};
   std::size_t occupied_voxels = 0;
   std::vector<std::uint16_t> pixels;  // depth frame of the static boxes
-  DepthEvidence depth{};
+  DepthView depth{};
   CameraIntrinsics camera{};
   Pose pose{};
   std::unique_ptr<FarFieldLayer> far = std::make_unique<FarFieldLayer>();  // fed that frame
@@ -59,9 +58,8 @@ const Scene& scene() {
     std::uniform_real_distribution<float> pos(-6.0f, 6.0f);
     std::uniform_real_distribution<float> ang(-3.14159f, 3.14159f);
     std::uniform_real_distribution<float> spd(0.6f, 1.6f);
-    // The room's air observed free (as the camera would leave it), so the non-free query of
-    // unknown_weight < 1 has free space to walk; then room walls, 60 pillars (0.3 m), 12 wall
-    // segments (1.5 m), all floor to 2.4 m.
+    // The room's air observed free (as the camera would leave it); then room walls, 60 pillars
+    // (0.3 m), 12 wall segments (1.5 m), all floor to 2.4 m.
     const float h = 2.4f;
     dynamap::test::WorldScene world;
     for (float x = -6.05f; x < 6.1f; x += 0.1f) {
@@ -93,12 +91,12 @@ const Scene& scene() {
     cam.cx = 320.0f;
     cam.cy = 240.0f;
     const Pose pose = dynamap::test::level_camera(Eigen::Vector3f(-5.9f, 0.0f, 1.3f));
-    sc->depth = DepthEvidence::of(dynamap::test::render(world, cam, pose, sc->pixels), cam, pose);
+    sc->depth = dynamap::test::render(world, cam, pose, sc->pixels);
     sc->camera = cam;
     sc->pose = pose;
     if (!ok(sc->far->init(FarFieldConfig{}, 0.0f))) std::abort();
     for (int f = 0; f < 3; ++f) {
-      if (!ok(sc->far->update(sc->depth.depth, cam, pose, nullptr, 0))) std::abort();
+      if (!ok(sc->far->update(sc->depth, cam, pose, nullptr, 0))) std::abort();
     }
     // Walkers: straight lines at their speed, turning slightly every frame.
     for (std::size_t k = 0; k < kObstacles; ++k) {
@@ -133,64 +131,53 @@ struct CountingMap {
     voxel_lengths += static_cast<double>(((h ? *hit : b) - a).lpNorm<1>() / map->resolution());
     return h;
   }
-  bool first_non_free_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
-                                 Eigen::Vector3f* hit) const noexcept {
-    const bool h = map->first_non_free_on_segment(a, b, hit);
-    queries += 1;
-    voxel_lengths += static_cast<double>(((h ? *hit : b) - a).lpNorm<1>() / map->resolution());
-    return h;
-  }
 };
 
-// The linear baseline is map-only (docs/predictor.md): the frame is for the Markov predictor.
+// The linear baseline is map-only (docs/predictor.md): the layer is for the Markov predictor.
 Status run(MarkovPredictor& p, const ObstacleState* o, const OccupancyQuery& q,
-           const DepthEvidence* depth, const FarFieldLayer* far, PathPrediction* out) {
-  return p.predict(o, kObstacles, q, depth, far, out);
+           const FarFieldLayer* far, PathPrediction* out) {
+  return p.predict(o, kObstacles, q, far, out);
 }
 Status run(LinearPredictor& p, const ObstacleState* o, const OccupancyQuery& q,
-           const DepthEvidence*, const FarFieldLayer*, PathPrediction* out) {
+           const FarFieldLayer*, PathPrediction* out) {
   return p.predict(o, kObstacles, q, out);
 }
 
 template <class Predictor>
 void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto,
-                const DepthEvidence* depth = nullptr, const FarFieldLayer* far = nullptr) {
+                const FarFieldLayer* far = nullptr) {
   auto p = std::make_unique<Predictor>(proto);
   CountingMap counting{sc.map.get()};
   const OccupancyQuery q = OccupancyQuery::of(counting);
   std::array<PathPrediction, kObstacles> out{};
   for (std::size_t f = 0; f < kFrames; ++f) {
-    if (!ok(run(*p, sc.frames[f].data(), q, depth, far, out.data()))) std::abort();
+    if (!ok(run(*p, sc.frames[f].data(), q, far, out.data()))) std::abort();
   }
   state.counters["queries/frame"] = counting.queries / kFrames;
   state.counters["voxels/frame"] = counting.voxel_lengths / kFrames;  // ~DDA steps (L1 length)
 }
 
 // Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7),
-// unknown_weight in percent (100 = default, no second sweep), depth check (0 off = default, 1 on),
 // far-field layer lookups (1 = default, 0 off; the layer's update is BM_FarFieldUpdate).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
   MarkovPredictorConfig cfg;
   cfg.paths.num_paths = static_cast<std::size_t>(state.range(0));
   cfg.clearance.max_lines = static_cast<std::size_t>(state.range(1));
-  cfg.unknown_weight = static_cast<float>(state.range(2)) / 100.0f;
-  cfg.depth_check.enabled = state.range(3) != 0;
-  const DepthEvidence* depth = cfg.depth_check.enabled ? &sc.depth : nullptr;
-  const FarFieldLayer* far = state.range(4) != 0 ? sc.far.get() : nullptr;
+  const FarFieldLayer* far = state.range(2) != 0 ? sc.far.get() : nullptr;
   auto mp = std::make_unique<MarkovPredictor>();
   if (!ok(mp->init(cfg))) {
     state.SkipWithError("init failed");
     return;
   }
-  count_work(state, sc, *mp, depth, far);
+  count_work(state, sc, *mp, far);
   const OccupancyQuery q = OccupancyQuery::of(*sc.map);
   std::array<PathPrediction, kObstacles> out{};
   std::size_t f = 0;
   std::size_t failed = 0;
   std::size_t predictions = 0;
   for (auto _ : state) {
-    const Status s = mp->predict(sc.frames[f].data(), kObstacles, q, depth, far, out.data());
+    const Status s = mp->predict(sc.frames[f].data(), kObstacles, q, far, out.data());
     benchmark::DoNotOptimize(s);
     benchmark::DoNotOptimize(out.data());
     for (const PathPrediction& p : out) failed += p.failed ? 1 : 0;
@@ -203,16 +190,12 @@ void BM_MarkovPredictor(benchmark::State& state) {
   state.counters["occupied_voxels"] = static_cast<double>(sc.occupied_voxels);
 }
 BENCHMARK(BM_MarkovPredictor)
-    ->ArgNames({"l", "max_lines", "unknown_pct", "depth", "far"})
-    ->Args({5, 9, 100, 0, 1})
-    ->Args({5, 9, 100, 0, 0})
-    ->Args({15, 9, 100, 0, 1})
-    ->Args({5, 3, 100, 0, 1})
-    ->Args({15, 3, 100, 0, 1})
-    ->Args({5, 9, 90, 0, 1})
-    ->Args({5, 9, 100, 1, 1})
-    ->Args({15, 9, 100, 1, 1})
-    ->Args({5, 3, 100, 1, 1})
+    ->ArgNames({"l", "max_lines", "far"})
+    ->Args({5, 9, 1})
+    ->Args({5, 9, 0})
+    ->Args({15, 9, 1})
+    ->Args({5, 3, 1})
+    ->Args({15, 3, 1})
     ->Repetitions(5)
     ->ReportAggregatesOnly(true)
     ->Unit(benchmark::kMicrosecond);
@@ -232,7 +215,7 @@ void BM_FarFieldUpdate(benchmark::State& state) {
     discs[k].radius = 0.45f;
   }
   for (auto _ : state) {
-    const Status s = layer->update(sc.depth.depth, sc.camera, sc.pose, discs.data(), kObstacles);
+    const Status s = layer->update(sc.depth, sc.camera, sc.pose, discs.data(), kObstacles);
     benchmark::DoNotOptimize(s);
   }
   state.counters["hits/frame"] = static_cast<double>(layer->last_hits());

@@ -65,10 +65,6 @@ constexpr ParamChoice kMotionModels[] = {
     {"cv", static_cast<int>(MotionModel::kConstantVelocity)},
     {"imm", static_cast<int>(MotionModel::kTurnImm)},
 };
-constexpr ParamChoice kBeliefUpdates[] = {
-    {"compound", static_cast<int>(BeliefUpdate::kCompound)},
-    {"choice_only", static_cast<int>(BeliefUpdate::kChoiceOnly)},
-};
 
 // Every field of PipelineConfig. Ranges are what every stage accepts (a value in range never
 // makes a stage refuse its configuration); relations between fields are checked in validate().
@@ -233,17 +229,8 @@ constexpr Parameter kTable[] = {
     {DYNAMAP_FIELD(predictor.sigma_init), X, "rad", 0, kInf, kOpen, kOpen, "spread of the initial belief around the straight path"},
     {DYNAMAP_FIELD(predictor.sigma_trans), X, "rad", 0, kInf, kOpen, kOpen, "spread of each transition row around its diagonal"},
     {DYNAMAP_FIELD(predictor.beta), X, "1/m", 0, kInf, kClosed, kOpen, "P_env = softmax(beta x free distance); 0 ignores the map"},
-    {DYNAMAP_FIELD(predictor.unknown_weight), X, "", 0, 1, kClosed, kClosed, "weight of never-observed space in the free distance"},
     {DYNAMAP_FIELD(predictor.choose_free), X, "", 0, 1, kClosed, kClosed, "output the likeliest path that is free in the map"},
     {DYNAMAP_FIELD(predictor.straight_when_free), X, "", 0, 1, kClosed, kClosed, "output the straight path whenever it is free and no path is better supported"},
-    {DYNAMAP_FIELD(predictor.belief_update), X, "", 0, 1, kClosed, kClosed, "compound (docs/design.md) or choice_only", kBeliefUpdates, 2},
-    // Predictor: depth-image check.
-    {DYNAMAP_FIELD(predictor.depth_check.enabled), X, "", 0, 1, kClosed, kClosed, "also check paths against the current depth image"},
-    {DYNAMAP_FIELD(predictor.depth_check.noise_margin), X, "m", 0, kInf, kClosed, kOpen, "constant part of the depth noise margin"},
-    {DYNAMAP_FIELD(predictor.depth_check.noise_quadratic), X, "1/m", 0, kInf, kClosed, kOpen, "quadratic part of the depth noise margin"},
-    {DYNAMAP_FIELD(predictor.depth_check.surface_thickness), X, "m", 0, kInf, kClosed, kOpen, "space behind a measured surface that counts as inside"},
-    {DYNAMAP_FIELD(predictor.depth_check.min_depth), X, "m", 0, kInf, kOpen, kOpen, "nearer pixels are not used"},
-    {DYNAMAP_FIELD(predictor.depth_check.max_depth), X, "m", 0, kInf, kOpen, kOpen, "farther pixels are not used"},
     // Far-field layer (the predictor's memory of walls beyond the map's range).
     {DYNAMAP_FIELD(far_field.enabled), X, "", 0, 1, kClosed, kClosed, "update the far-field layer and let the predictor use it"},
     {DYNAMAP_FIELD(far_field.cell_size), X, "m", 0.05, 1, kClosed, kClosed, "grid cell and range bin"},

@@ -148,7 +148,7 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   const std::size_t n_dyn = collect_dynamic(frame);
   const FarFieldLayer* far = update_far_field(frame, n_dyn, on_team, work);
   lap(Stage::kFarField, clock);
-  out.num_predictions = predict(frame, n_dyn, far, work, out);
+  out.num_predictions = predict(n_dyn, far, work, out);
   work.predictions = out.num_predictions;
   lap(Stage::kPrediction, clock);
   finish(frame, clock, work, out);
@@ -291,21 +291,17 @@ const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t 
   return &far_field_;
 }
 
-std::size_t Pipeline::predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
-                              FrameWork& work, FrameOutput& out) noexcept {
+std::size_t Pipeline::predict(std::size_t n_dyn, const FarFieldLayer* far, FrameWork& work,
+                              FrameOutput& out) noexcept {
   const OccupancyQuery query = OccupancyQuery::of(map_);
-  // The frame's pixels are read in place: the caller keeps them alive for the whole call.
-  const DepthEvidence evidence = DepthEvidence::of(frame.depth, config_.camera, frame.T_map_camera);
-  const DepthEvidence* depth = config_.predictor.depth_check.enabled ? &evidence : nullptr;
-  if (!step_ok(markov_.predict(predictor_input_.data(), n_dyn, query, depth, far,
-                               out.predictions.data()),
+  if (!step_ok(markov_.predict(predictor_input_.data(), n_dyn, query, far, out.predictions.data()),
                work)) {
     return 0;
   }
   if (config_.run_linear_baseline && n_dyn > 0) {
-    // Map only: the baseline's straight path is fixed, and its failure counts "no path free"
-    // (tools/eval), so a depth-image surface would change its figure by a test that is not the
-    // collision of that path with the world.
+    // Map only (no far-field layer): the baseline's straight path is fixed, and its failure
+    // counts "no path free" (tools/eval), so another environment source would change its figure
+    // by a test that is not the collision of that path with the world.
     (void)step_ok(
         linear_.predict(predictor_input_.data(), n_dyn, query, out.linear_predictions.data()),
         work);

@@ -69,8 +69,7 @@ WorstCaseWork worst_case_work(const PipelineConfig& c) noexcept {
       add(count_of(3.f * horizon / m.resolution), 3 * (kMaxPathSamples - 1));
   const ClearanceConfig& cl = c.predictor.clearance;
   const std::size_t per_track_path = mul(mul(cl.max_lines, cl.height_levels), per_path);
-  const std::size_t sweeps = c.predictor.unknown_weight < 1.f ? 2 : 1;
-  const std::size_t markov = mul(mul(w.tracks, paths.num_paths), mul(sweeps, per_track_path));
+  const std::size_t markov = mul(mul(w.tracks, paths.num_paths), per_track_path);
   const std::size_t linear = c.run_linear_baseline ? mul(w.tracks, per_track_path) : 0;
   w.predictor_voxel_steps = add(markov, linear);
   return w;
@@ -105,7 +104,7 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
             "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");
 }
 
-// Relations between fields of the tracker and the predictor.
+// Relations between fields of the tracker.
 void check_tracker_relations(const PipelineConfig& c, Checker& k) noexcept {
   const TrackerConfig& t = c.tracker;
   const ContinuityConfig& cc = t.continuity;
@@ -125,9 +124,6 @@ void check_tracker_relations(const PipelineConfig& c, Checker& k) noexcept {
             "must be < tracker.continuity.displacement_frames");
   k.require(2 * t.image_margin < c.camera.width && 2 * t.image_margin < c.camera.height,
             "tracker.image_margin", "must be < half of camera.width and of camera.height");
-  const DepthCheckConfig& d = c.predictor.depth_check;
-  k.require(d.max_depth > d.min_depth, "predictor.depth_check.max_depth",
-            "must be > predictor.depth_check.min_depth");
 }
 
 // Relations between fields of the far-field layer (far_field_layer.hpp).

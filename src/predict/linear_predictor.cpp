@@ -35,10 +35,7 @@ Status LinearPredictor::predict(const ObstacleState* obstacles, std::size_t coun
     p.probability[0] = 1.0f;
     p.free_distance.fill(0.0f);
     p.free_distance[0] = c.free_distance;
-    p.observed_distance.fill(0.0f);
-    p.observed_distance[0] = c.observed_distance;
     p.free_mask = c.free ? 1u : 0u;
-    p.depth_blocked_mask = 0;
     p.any_free = c.free;
     p.failed = !c.free;
     write_chosen_path(path_, o.position.z(), &p);

@@ -53,13 +53,6 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
     return Status::kInvalidArgument;
   }
   if (!std::isfinite(c.beta) || c.beta < 0.0f) return Status::kInvalidArgument;
-  if (!std::isfinite(c.unknown_weight) || c.unknown_weight < 0.0f || c.unknown_weight > 1.0f) {
-    return Status::kInvalidArgument;
-  }
-  if (!ok(validate(c.depth_check))) return Status::kInvalidArgument;
-  if (c.belief_update != BeliefUpdate::kCompound && c.belief_update != BeliefUpdate::kChoiceOnly) {
-    return Status::kInvalidArgument;
-  }
 
   config_ = c;
   library_ = lib;
@@ -98,11 +91,11 @@ bool MarkovPredictor::belief(std::uint32_t track_id, Belief* out) const noexcept
 }
 
 Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t count,
-                                const OccupancyQuery& map, const DepthEvidence* depth,
-                                const FarFieldLayer* far_field, PathPrediction* out) noexcept {
+                                const OccupancyQuery& map, const FarFieldLayer* far_field,
+                                PathPrediction* out) noexcept {
   if (!initialised_) return Status::kNotInitialized;
   // Validate everything before touching any state.
-  const Status bad = validate_prediction_call(obstacles, count, map, depth, out);
+  const Status bad = validate_prediction_call(obstacles, count, map, out);
   if (!ok(bad)) return bad;
   for (std::size_t k = 0; k < count; ++k) {
     for (std::size_t m = 0; m < k; ++m) {
@@ -120,28 +113,19 @@ Status MarkovPredictor::predict(const ObstacleState* obstacles, std::size_t coun
   });
   for (const std::uint32_t id : stale) beliefs_.erase(id);
 
-  DepthSweep sweep;
-  sweep.evidence = depth;
-  sweep.config = config_.depth_check;
-  sweep.obstacles = obstacles;
-  sweep.count = count;
-  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, sweep, far_field, &out[k]);
+  for (std::size_t k = 0; k < count; ++k) predict_one(obstacles[k], map, far_field, &out[k]);
   return Status::kOk;
 }
 
 void MarkovPredictor::predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
-                                  const DepthSweep& depth, const FarFieldLayer* far_field,
-                                  PathPrediction* out) noexcept {
+                                  const FarFieldLayer* far_field, PathPrediction* out) noexcept {
   const std::size_t l = library_.size();
-  const Belief env = sweep_paths(obstacle, map, depth, far_field, out);
+  const Belief env = sweep_paths(obstacle, map, far_field, out);
   const Belief post = update_belief(obstacle.track_id, env);
   const std::size_t best = choose_path(post, *out);
   for (std::size_t i = 0; i < kMaxPaths; ++i) {
     out->probability[i] = i < l ? static_cast<float>(post[i]) : 0.0f;
-    if (i >= l) {
-      out->free_distance[i] = 0.0f;
-      out->observed_distance[i] = 0.0f;
-    }
+    if (i >= l) out->free_distance[i] = 0.0f;
   }
   out->chosen = best;
   out->failed = !out->path_free(best);
@@ -150,7 +134,6 @@ void MarkovPredictor::predict_one(const ObstacleState& obstacle, const Occupancy
 
 MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstacle,
                                                      const OccupancyQuery& map,
-                                                     const DepthSweep& depth,
                                                      const FarFieldLayer* far_field,
                                                      PathPrediction* out) noexcept {
   const std::size_t l = library_.size();
@@ -158,26 +141,20 @@ MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstac
   out->track_id = obstacle.track_id;
   out->num_paths = l;
   out->free_mask = 0;
-  out->depth_blocked_mask = 0;
   out->far_blocked_mask = 0;
   out->any_free = false;
-  const bool observed = config_.unknown_weight < 1.0f;
-  const float w = config_.unknown_weight;
   std::array<float, kMaxPaths> dist{};  // Dist_i of P_env
   float max_dist = 0.0f;
   for (std::size_t i = 0; i < l; ++i) {
     library_.sample(i, origin, obstacle.velocity, &paths_[i]);
-    const PathClearance c =
-        sweep_path(map, paths_[i], obstacle, config_.clearance, observed, depth, far_field);
+    const PathClearance c = sweep_path(map, paths_[i], obstacle, config_.clearance, far_field);
     out->free_distance[i] = c.free_distance;
-    out->observed_distance[i] = c.observed_distance;
-    if (c.depth_blocked) out->depth_blocked_mask |= 1u << i;
     if (c.far_blocked) out->far_blocked_mask |= 1u << i;
     if (c.free) {
       out->free_mask |= 1u << i;
       out->any_free = true;
     }
-    dist[i] = c.observed_distance + w * (c.free_distance - c.observed_distance);
+    dist[i] = c.free_distance;
     max_dist = i == 0 ? dist[i] : std::fmax(max_dist, dist[i]);
   }
 
@@ -196,7 +173,7 @@ MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstac
 MarkovPredictor::Belief MarkovPredictor::update_belief(std::uint32_t track_id,
                                                        const Belief& env) noexcept {
   // prior = P(t) * P_trans, or P_init for a new track; post = prior (.) P_env, normalised, is
-  // what the choice is made on. kCompound keeps post for the next frame, kChoiceOnly keeps prior.
+  // what the choice is made on and what is kept for the next frame (P_env compounds).
   const std::size_t l = library_.size();
   bool inserted = false;
   Belief* state = beliefs_.find_or_insert(track_id, inserted);
@@ -216,22 +193,17 @@ MarkovPredictor::Belief MarkovPredictor::update_belief(std::uint32_t track_id,
   if (!normalise(l, &post)) {
     // The old belief and the map disagree beyond double precision: restart from the prior.
     ++underflow_restarts_;
-    prior = initial_;
     for (std::size_t j = 0; j < l; ++j) post[j] = initial_[j] * env[j];
     if (!normalise(l, &post)) post = env;
   }
-  const BeliefUpdate mode = config_.belief_update;
-  if (mode == BeliefUpdate::kChoiceOnly && !normalise(l, &prior)) prior = initial_;
-  if (state != nullptr) {  // nullptr only if the table were full (it cannot be)
-    *state = mode == BeliefUpdate::kCompound ? post : prior;
-  }
+  if (state != nullptr) *state = post;  // nullptr only if the table were full (it cannot be)
   return post;
 }
 
 std::size_t MarkovPredictor::choose_path(const Belief& post,
                                          const PathPrediction& out) const noexcept {
   // Most likely path (among the free ones when choose_free and any is free). Exact ties go to
-  // the one nearer the straight path, then (mirror pairs) to the one seen free for longer.
+  // the one nearer the straight path, then (mirror pairs) to the one free for longer.
   const std::size_t l = library_.size();
   const float centre = library_.center_index();
   const bool only_free = config_.choose_free && out.any_free;
@@ -248,22 +220,17 @@ std::size_t MarkovPredictor::choose_path(const Belief& post,
     const bool tie = post[i] == post[best];
     const bool tie_nearer = tie && off_i < off_best;
     const bool tie_seen =
-        tie && off_i == off_best && out.observed_distance[i] > out.observed_distance[best];
+        tie && off_i == off_best && out.free_distance[i] > out.free_distance[best];
     if (better || tie_nearer || tie_seen) best = i;
   }
   if (best == l) return 0;  // l >= 1: best == l only if no path was considered (cannot be)
   // Never prefer a worse bet: straight when it is free and no path is better supported.
   const std::size_t straight = (l - 1) / 2;  // the straight path when l is odd
   if (config_.straight_when_free && l % 2 == 1 && out.path_free(straight) &&
-      support(out, straight) >= support(out, best)) {
+      out.free_distance[straight] >= out.free_distance[best]) {
     return straight;
   }
   return best;
-}
-
-float MarkovPredictor::support(const PathPrediction& out, std::size_t i) const noexcept {
-  const float w = config_.unknown_weight;
-  return out.observed_distance[i] + w * (out.free_distance[i] - out.observed_distance[i]);
 }
 
 }  // namespace dynamap

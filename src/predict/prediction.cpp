@@ -25,45 +25,6 @@ Status validate(const ClearanceConfig& c) noexcept {
   return Status::kOk;
 }
 
-Status validate(const DepthCheckConfig& c) noexcept {
-  if (!std::isfinite(c.noise_margin) || c.noise_margin < 0.0f) return Status::kInvalidArgument;
-  if (!std::isfinite(c.noise_quadratic) || c.noise_quadratic < 0.0f) {
-    return Status::kInvalidArgument;
-  }
-  if (!std::isfinite(c.surface_thickness) || c.surface_thickness < 0.0f) {
-    return Status::kInvalidArgument;
-  }
-  if (!std::isfinite(c.min_depth) || c.min_depth <= 0.0f) return Status::kInvalidArgument;
-  if (!std::isfinite(c.max_depth) || c.max_depth <= c.min_depth) return Status::kInvalidArgument;
-  return Status::kOk;
-}
-
-DepthEvidence DepthEvidence::of(const DepthView& depth, const CameraIntrinsics& camera,
-                                const Pose& T_map_camera) noexcept {
-  DepthEvidence e;
-  e.depth = depth;
-  e.camera = camera;
-  e.R_cam_map = T_map_camera.rotation.toRotationMatrix().transpose();
-  e.origin = T_map_camera.translation;
-  e.t_cam_map = -(e.R_cam_map * e.origin);
-  return e;
-}
-
-Status validate(const DepthEvidence& e) noexcept {
-  const Status s = validate_depth(e.depth, e.camera);
-  if (!ok(s)) return s;
-  const CameraIntrinsics& c = e.camera;
-  if (!std::isfinite(c.fx) || !std::isfinite(c.fy) || !std::isfinite(c.cx) ||
-      !std::isfinite(c.cy) || !std::isfinite(c.depth_scale) || !e.R_cam_map.allFinite() ||
-      !e.t_cam_map.allFinite() || !e.origin.allFinite()) {
-    return Status::kNonFinite;
-  }
-  if (!(c.fx > 0.0f) || !(c.fy > 0.0f) || !(c.depth_scale > 0.0f)) {
-    return Status::kInvalidArgument;
-  }
-  return Status::kOk;
-}
-
 Status validate(const ObstacleState& o) noexcept {
   if (!o.position.allFinite() || !o.velocity.allFinite() || !std::isfinite(o.footprint_radius) ||
       !std::isfinite(o.height) || !std::isfinite(o.body_margin)) {
@@ -156,7 +117,7 @@ SweepGeometry sweep_geometry(const ObstacleState& obstacle,
 }
 
 /// Arc length along `path` before any swept line meets a voxel that `query` reports (the map's
-/// occupied query or its non-free one); the full length, and *free = true, when none does.
+/// occupied query); the full length, and *free = true, when none does.
 template <class Query>
 float first_hit_distance(const Query& query, const PathSamples& path, const SweepGeometry& g,
                          const ClearanceConfig& clearance, bool* free) noexcept {
@@ -200,72 +161,6 @@ float first_hit_distance(const Query& query, const PathSamples& path, const Swee
   }
   return path.arc_length[n - 1];
 }
-/// Does map point `p` lie at a surface of the depth frame (not floor, not a predicted obstacle):
-/// along the viewing ray, at most the noise margin in front of it, or behind it by at most the
-/// margin plus `band`? Outside the image, no return, out of range, in front of the surface or far
-/// behind it (occluded): no.
-bool depth_surface_at(const DepthSweep& sw, const Eigen::Vector3f& p, float band, float floor_z,
-                      float exclude_margin) noexcept {
-  const DepthEvidence& ev = *sw.evidence;
-  const DepthCheckConfig& dc = sw.config;
-  const CameraIntrinsics& cam = ev.camera;
-  const Eigen::Vector3f pc = ev.R_cam_map * p + ev.t_cam_map;
-  if (!(pc.z() >= dc.min_depth)) return false;  // behind the camera, too near (or NaN)
-  const float inv_z = 1.0f / pc.z();
-  const float u = cam.fx * pc.x() * inv_z + cam.cx;
-  const float v = cam.fy * pc.y() * inv_z + cam.cy;
-  // Pixel centres sit at integer coordinates (the map's and the renderer's convention).
-  if (!(u >= -0.5f && u < static_cast<float>(ev.depth.width) - 0.5f)) return false;
-  if (!(v >= -0.5f && v < static_cast<float>(ev.depth.height) - 0.5f)) return false;
-  const int iu = static_cast<int>(u + 0.5f);
-  const int iv = static_cast<int>(v + 0.5f);
-  const std::uint16_t raw = ev.depth.at(iu, iv);
-  if (raw == 0) return false;  // no return: the image knows nothing here
-  const float d = static_cast<float>(raw) * cam.depth_scale;
-  if (d < dc.min_depth || d > dc.max_depth) return false;
-  const float m = dc.noise_margin + dc.noise_quadratic * d * d;
-  if (pc.z() < d - m) return false;         // in front of the surface: seen free
-  if (pc.z() > d + m + band) return false;  // farther behind it: occluded, unknown
-  // The measured point on the same ray. Floor and walkers (the swept one and the others) are
-  // not walls: their pixels neither block a path nor say what lies behind them.
-  const Eigen::Vector3f q = ev.origin + (d * inv_z) * (p - ev.origin);
-  if (q.z() < floor_z) return false;
-  for (std::size_t k = 0; k < sw.count; ++k) {
-    const ObstacleState& o = sw.obstacles[k];
-    const float r = o.footprint_radius + exclude_margin + m;
-    if ((q.head<2>() - o.position.head<2>()).squaredNorm() < r * r) return false;
-  }
-  return true;
-}
-
-/// Arc length along `path`, up to `limit`, before a swept line's point at a sample meets a
-/// surface in the depth frame (the sample's arc length); `limit` and *free = true when none does.
-float depth_hit_distance(const DepthSweep& sw, const PathSamples& path, const SweepGeometry& g,
-                         float floor_z, float exclude_margin, float limit, bool* free) noexcept {
-  *free = true;
-  const std::size_t n = std::min(path.count, kMaxPathSamples);
-  for (std::size_t k = 0; k < n; ++k) {
-    if (path.arc_length[k] > limit) break;
-    // A line crossing a surface has a point within one sample spacing behind it (the spacing
-    // bounds the step along the ray), so no wall is stepped over between samples.
-    const float step = k > 0 ? path.arc_length[k] - path.arc_length[k - 1] : 0.0f;
-    const float band = std::max(sw.config.surface_thickness, step);
-    const Eigen::Vector2f normal(-path.tangent[k].y(), path.tangent[k].x());
-    for (std::size_t j = 0; j < g.lines; ++j) {
-      const Eigen::Vector2f p2 = path.position[k] + g.offset[j] * normal;
-      // Same own-body disc as the map's sweep.
-      if (g.self_r > 0.0f && (p2 - g.self_centre).squaredNorm() < g.self_r2) continue;
-      for (std::size_t h = 0; h < g.levels; ++h) {
-        if (depth_surface_at(sw, Eigen::Vector3f(p2.x(), p2.y(), g.level[h]), band, floor_z,
-                             exclude_margin)) {
-          *free = false;
-          return path.arc_length[k];
-        }
-      }
-    }
-  }
-  return limit;
-}
 /// Arc length along `path`, up to `limit`, before a point of the footprint at a sample lies in a
 /// remembered wall cell of the far-field layer; `limit` and *free = true when none does. The
 /// lines are at most one cell apart, so no cell slips between them.
@@ -306,7 +201,6 @@ float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const 
 
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance,
-                         bool observed, const DepthSweep& depth,
                          const FarFieldLayer* far_field) noexcept {
   const SweepGeometry g = sweep_geometry(obstacle, clearance);
   PathClearance result;
@@ -314,31 +208,6 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
       first_hit_distance([&map](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                                 Eigen::Vector3f* hit) { return map.segment(a, b, hit); },
                          path, g, clearance, &result.free);
-  result.observed_distance = result.free_distance;
-  if (observed && map.knows_unknown() && result.free_distance > 0.0f) {
-    // Same lines and chords; an occupied voxel is also non-free, so this sweep stops at or
-    // before the occupied one (the min only absorbs rounding of the hit fractions).
-    bool all_observed = true;
-    const float d =
-        first_hit_distance([&map](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
-                                  Eigen::Vector3f* hit) { return map.non_free_segment(a, b, hit); },
-                           path, g, clearance, &all_observed);
-    result.observed_distance = std::min(d, result.free_distance);
-  }
-  if (depth.active()) {
-    // Only the stretch before the map's hit can change the answer.
-    const float floor_z =
-        obstacle.position.z() - 0.5f * obstacle.height + clearance.ground_clearance;
-    bool depth_free = true;
-    const float d = depth_hit_distance(depth, path, g, floor_z, clearance.self_margin,
-                                       result.free_distance, &depth_free);
-    if (!depth_free) {
-      result.depth_blocked = result.free || d < result.free_distance;
-      result.free = false;
-      result.free_distance = std::min(result.free_distance, d);
-      result.observed_distance = std::min(result.observed_distance, result.free_distance);
-    }
-  }
   if (far_field != nullptr && far_field->initialised() && far_field->config().enabled) {
     bool far_free = true;
     const float d = far_hit_distance(*far_field, path, g, obstacle.footprint_radius,
@@ -347,7 +216,6 @@ PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
       result.far_blocked = result.free || d < result.free_distance;
       result.free = false;
       result.free_distance = std::min(result.free_distance, d);
-      result.observed_distance = std::min(result.observed_distance, result.free_distance);
     }
   }
   return result;
@@ -374,14 +242,6 @@ Status validate_prediction_call(const ObstacleState* obstacles, std::size_t coun
     if (!ok(s)) return s;
   }
   return Status::kOk;
-}
-
-Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
-                                const OccupancyQuery& map, const DepthEvidence* depth,
-                                const PathPrediction* out) noexcept {
-  const Status s = validate_prediction_call(obstacles, count, map, out);
-  if (!ok(s) || depth == nullptr) return s;
-  return validate(*depth);
 }
 
 }  // namespace dynamap

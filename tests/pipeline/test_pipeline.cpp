@@ -120,16 +120,6 @@ TEST(PipelineConfig, ValidateNamesTheFirstBadField) {
   EXPECT_STREQ(validate(c).field, "budgets.max_pixel_stride");
 
   c = PipelineConfig{};
-  c.predictor.unknown_weight = 1.5f;
-  EXPECT_STREQ(validate(c).field, "predictor.unknown_weight");
-
-  c = PipelineConfig{};
-  c.predictor.belief_update = static_cast<BeliefUpdate>(7);
-  EXPECT_STREQ(validate(c).field, "predictor.belief_update");
-  c.predictor.belief_update = BeliefUpdate::kChoiceOnly;
-  EXPECT_TRUE(validate(c).ok());
-
-  c = PipelineConfig{};
   c.map.free_ray_early_stop = -1;
   EXPECT_STREQ(validate(c).field, "map.free_ray_early_stop");
 
@@ -585,18 +575,17 @@ TEST(Pipeline, GroupsAreSplitWithoutAllocationAndBitIdentically) {
   EXPECT_EQ(splits_off, 0u);
 }
 
-// The frame reaches the predictor (predictor.depth_check): with the map's range cut to 3.5 m the
-// wall at 4.5 m is never in the map, so the walker's right turns (towards the wall) look free
-// to the map alone; the frame blocks them, and the walker's own pixels do not block its
-// straight path. Reruns are bit-identical and process() still allocates nothing.
-TEST(Pipeline, DepthCheckSeesTheWallBeyondTheMapRange) {
+// The far-field layer reaches the predictor: with the map's range cut to 3.5 m the wall at
+// 4.5 m is never in the map, so the walker's right turns (towards the wall) look free to the map
+// alone; the layer blocks them, and the walker's own pixels do not block its straight path.
+// Reruns are bit-identical and process() still allocates nothing.
+TEST(Pipeline, FarFieldLayerSeesTheWallBeyondTheMapRange) {
   PipelineConfig cfg = small_camera_config();
   cfg.map.max_depth = 3.5f;
-  std::array<PathPrediction, 3> last{};
-  // 0: map only, 1: the depth check, 2: the far-field layer (its near limit at the map's range).
-  for (int enabled = 0; enabled < 3; ++enabled) {
-    cfg.predictor.depth_check.enabled = enabled == 1;
-    cfg.far_field.enabled = enabled == 2;
+  std::array<PathPrediction, 2> last{};
+  // 0: map only, 1: the far-field layer (its near limit at the map's range).
+  for (int enabled = 0; enabled < 2; ++enabled) {
+    cfg.far_field.enabled = enabled == 1;
     cfg.far_field.hit_min_range = 3.5f;
     auto p = std::make_unique<Pipeline>();
     auto out = std::make_unique<FrameOutput>();
@@ -628,16 +617,11 @@ TEST(Pipeline, DepthCheckSeesTheWallBeyondTheMapRange) {
     last[static_cast<std::size_t>(enabled)] = out->predictions[0];
   }
   const PathPrediction& map_only = last[0];
-  const PathPrediction& with_depth = last[1];
   EXPECT_TRUE(map_only.path_free(4));  // 90 degrees right: into the unseen wall
-  EXPECT_EQ(map_only.depth_blocked_mask, 0u);
-  EXPECT_FALSE(with_depth.path_free(4));
-  EXPECT_TRUE(with_depth.depth_blocked_mask & (1u << 4));
-  EXPECT_TRUE(with_depth.path_free(2));  // straight on, parallel to the wall
-  EXPECT_TRUE(with_depth.path_free(with_depth.chosen));
+  EXPECT_EQ(map_only.far_blocked_mask, 0u);
   // The far-field layer (its own stage, covered by the zero-allocation check above) blocks the
-  // same turn, and not the straight path.
-  const PathPrediction& with_far = last[2];
+  // turn, and not the straight path (parallel to the wall).
+  const PathPrediction& with_far = last[1];
   EXPECT_FALSE(with_far.path_free(4));
   EXPECT_TRUE(with_far.far_blocked_mask & (1u << 4));
   EXPECT_TRUE(with_far.path_free(2));

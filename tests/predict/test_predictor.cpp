@@ -35,7 +35,7 @@ constexpr float kPiF = 3.14159265358979f;
 class BoxWorld {
  public:
   void add_box(const Box3& b) { ASSERT_EQ(boxes_.push_back(b), Status::kOk); }
-  OccupancyQuery query() const { return OccupancyQuery::occupied_only(*this); }
+  OccupancyQuery query() const { return OccupancyQuery::of(*this); }
 
   bool first_occupied_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                                  Eigen::Vector3f* hit) const noexcept {
@@ -130,7 +130,7 @@ void expect_valid_distribution(const PathPrediction& p) {
   }
   EXPECT_EQ(p.failed, !p.path_free(p.chosen));
   // Default straight_when_free: the straight path whenever it is free (no path can be better
-  // supported than a free one at unknown_weight 1); otherwise the most likely (free) path.
+  // supported than a free one); otherwise the most likely (free) path.
   const bool straight_rule =
       p.num_paths % 2 == 1 && p.chosen == p.num_paths / 2 && p.path_free(p.chosen);
   if (p.num_paths % 2 == 1 && p.path_free(p.num_paths / 2)) {
@@ -716,12 +716,10 @@ TEST(MarkovPredictor, FootprintClearanceCountsNearMisses) {
 // A walker walks straight along +x, 0.8 m left of a long wall on its right (y = -0.8): the
 // straight path and both left turns are free for the whole horizon, the two right turns meet
 // the wall. Returns the path chosen in each of `frames` frames.
-std::vector<std::size_t> walk_along_right_wall(BeliefUpdate mode, int frames,
-                                               bool straight_when_free = false) {
+std::vector<std::size_t> walk_along_right_wall(int frames, bool straight_when_free = false) {
   BoxWorld w;
   w.add_box(wall(-5.0f, -0.9f, 60.0f, -0.8f));
   MarkovPredictorConfig c = markov_config(5);
-  c.belief_update = mode;
   c.straight_when_free = straight_when_free;
   MarkovPredictor mp;
   EXPECT_EQ(mp.init(c), Status::kOk);
@@ -742,7 +740,7 @@ TEST(MarkovPredictor, CompoundingBeliefDriftsOffTheStraightPathAlongAWall) {
   // the blocked right turns and P_env takes it away again, so the same wall counts again every
   // frame and the belief settles in the middle of the free set: a left turn, though nothing but the
   // wall on the right has changed since the first frame (the "lane-centre drift").
-  const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kCompound, 60);
+  const std::vector<std::size_t> chosen = walk_along_right_wall(60);
   EXPECT_EQ(chosen.front(), 2u);
   EXPECT_LT(chosen.back(), 2u);
 }
@@ -750,82 +748,29 @@ TEST(MarkovPredictor, CompoundingBeliefDriftsOffTheStraightPathAlongAWall) {
 TEST(MarkovPredictor, StraightWhenFreeKeepsTheStraightPathAlongAWallDespiteTheDrift) {
   // The default choice rule: the belief still drifts (the previous test), but the straight path
   // is free and no turn is better supported, so the output never turns into the unseen.
-  const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kCompound, 60, true);
+  const std::vector<std::size_t> chosen = walk_along_right_wall(60, true);
   for (std::size_t f = 0; f < chosen.size(); ++f) EXPECT_EQ(chosen[f], 2u) << "frame " << f;
 }
 
-TEST(MarkovPredictor, NonCompoundingBeliefKeepsTheStraightPathAlongAWall) {
-  const std::vector<std::size_t> chosen = walk_along_right_wall(BeliefUpdate::kChoiceOnly, 60);
-  for (std::size_t f = 0; f < chosen.size(); ++f) EXPECT_EQ(chosen[f], 2u) << "frame " << f;
-}
-
-TEST(MarkovPredictor, ChoiceOnlyBeliefIsTheChainAloneAndTheOutputItsProductWithTheMap) {
-  // kChoiceOnly: the kept belief is P_init * P_trans^n whatever the map says; the output
-  // probabilities are that belief (.) P_env, normalised (the compound update's formula for one
-  // frame), and the choice is their most likely free path.
-  BoxWorld w;
-  build_wall_with_left_opening(w);
-  MarkovPredictorConfig c = markov_config(5);
-  c.belief_update = BeliefUpdate::kChoiceOnly;
+TEST(MarkovPredictor, CompoundedBeliefIsAllocationFree) {
+  const MarkovPredictorConfig c = markov_config(5);
   MarkovPredictor mp;
   ASSERT_EQ(mp.init(c), Status::kOk);
-  const double beta = mp.config().beta;
-  MarkovPredictor::Belief chain{};
-  for (std::size_t i = 0; i < 5; ++i) chain[i] = mp.initial(i);
-  PathPrediction out;
-  ObstacleState o = walker(9, -0.6f, 0.0f, 1.0f, 0.0f);
-  for (int f = 0; f < 8; ++f) {
-    if (f > 0) {
-      MarkovPredictor::Belief next{};
-      for (std::size_t j = 0; j < 5; ++j) {
-        for (std::size_t i = 0; i < 5; ++i) next[j] += chain[i] * mp.transition(i, j);
-      }
-      chain = next;
-    }
-    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
-    MarkovPredictor::Belief b{};
-    ASSERT_TRUE(mp.belief(9, &b));
-    double sum = 0.0;
-    MarkovPredictor::Belief want{};
-    for (std::size_t i = 0; i < 5; ++i) {
-      EXPECT_NEAR(b[i], chain[i], 1e-9) << "frame " << f;
-      sum += want[i] = chain[i] * std::exp(beta * out.free_distance[i]);
-    }
-    for (std::size_t i = 0; i < 5; ++i) {
-      EXPECT_NEAR(out.probability[i], want[i] / sum, 1e-6) << "frame " << f;
-    }
-    EXPECT_NE(out.free_mask, 0x1Fu);  // the walls block some paths: P_env is not flat
-    expect_valid_distribution(out);
-    o.position.x() += 0.02f;
-  }
-}
-
-TEST(MarkovPredictor, BeliefUpdateIsValidatedAndAllocationFree) {
-  MarkovPredictorConfig c = markov_config(5);
-  MarkovPredictor mp;
-  ASSERT_EQ(mp.init(c), Status::kOk);
-  c.belief_update = static_cast<BeliefUpdate>(9);
-  EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
-  EXPECT_EQ(mp.config().belief_update, BeliefUpdate::kCompound);  // nothing changed
   BoxWorld w;
   build_wall_with_left_opening(w);
-  for (const BeliefUpdate mode : {BeliefUpdate::kCompound, BeliefUpdate::kChoiceOnly}) {
-    c.belief_update = mode;
-    ASSERT_EQ(mp.init(c), Status::kOk);
-    std::array<ObstacleState, 3> in{};
-    std::array<PathPrediction, 3> out{};
-    for (std::size_t k = 0; k < in.size(); ++k) {
-      in[k] = walker(static_cast<std::uint32_t>(20 + k), -0.6f + 0.1f * static_cast<float>(k),
-                     0.1f * static_cast<float>(k), 1.0f, 0.1f);
-    }
-    const OccupancyQuery q = w.query();
-    test::AllocationGuard guard;
-    for (int f = 0; f < 5; ++f) {
-      EXPECT_EQ(mp.predict(in.data(), in.size(), q, out.data()), Status::kOk);
-    }
-    EXPECT_EQ(guard.allocations(), 0u);
-    EXPECT_EQ(guard.deallocations(), 0u);
+  std::array<ObstacleState, 3> in{};
+  std::array<PathPrediction, 3> out{};
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    in[k] = walker(static_cast<std::uint32_t>(20 + k), -0.6f + 0.1f * static_cast<float>(k),
+                   0.1f * static_cast<float>(k), 1.0f, 0.1f);
   }
+  const OccupancyQuery q = w.query();
+  test::AllocationGuard guard;
+  for (int f = 0; f < 5; ++f) {
+    EXPECT_EQ(mp.predict(in.data(), in.size(), q, out.data()), Status::kOk);
+  }
+  EXPECT_EQ(guard.allocations(), 0u);
+  EXPECT_EQ(guard.deallocations(), 0u);
 }
 
 TEST(MarkovPredictor, OwnBodyInTheMapIsNotAnObstacle) {
@@ -901,7 +846,7 @@ TEST(MarkovPredictor, FarWalkersNoisyFrontIsNotAnObstacle) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Observed-free space (unknown_weight) and the choice among free paths (choose_free).
+// The choice among free paths (choose_free) and its ties.
 
 /// Sets every voxel whose centre lies in `b` to `log_odds` (negative: observed free).
 void fill(OccupancyMap& map, const Box3& b, float log_odds) {
@@ -915,88 +860,25 @@ void fill(OccupancyMap& map, const Box3& b, float log_odds) {
   }
 }
 
-TEST(MarkovPredictor, PathThroughUnknownSpaceLosesToObservedFree) {
-  // Walker at the origin heading +x; a thin wall ahead blocks the straight path only. The
-  // camera has seen the right side (y < 0.5) free; the left side is unknown. Both 45-degree
-  // turns are free of occupied voxels and mirror each other, so the map as the original read
-  // it (unknown = free) cannot tell them apart and the exact tie goes to the left one; counting
-  // only observed-free space, the right one wins.
+TEST(MarkovPredictor, MirrorTurnsTieAndTheTieGoesLeft) {
+  // Walker at the origin heading +x; a thin wall ahead blocks the straight path only. Both
+  // 45-degree turns are free and mirror each other (unknown space counts as free, seen free or
+  // not), so their probabilities are equal and the exact tie goes to the left one.
   auto map = std::make_unique<OccupancyMap>();
   ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
   fill(*map, Box3{Eigen::Vector3f(-1.0f, -3.0f, 0.0f), Eigen::Vector3f(4.0f, 0.5f, 2.5f)}, -2.0f);
   fill(*map, Box3{Eigen::Vector3f(1.5f, -0.4f, 0.0f), Eigen::Vector3f(1.6f, 0.4f, 2.5f)}, 3.0f);
   const OccupancyQuery q = OccupancyQuery::of(*map);
   const ObstacleState o = walker(3, 0.0f, 0.0f, 1.0f, 0.0f);
-  std::array<PathPrediction, 3> out{};
-  const std::array<float, 3> weights = {1.0f, 0.5f, 0.0f};
-  for (std::size_t k = 0; k < weights.size(); ++k) {
-    MarkovPredictorConfig c = markov_config(5);
-    c.unknown_weight = weights[k];
-    MarkovPredictor mp;
-    ASSERT_EQ(mp.init(c), Status::kOk);
-    ASSERT_EQ(mp.predict(&o, 1, q, &out[k]), Status::kOk);
-    expect_valid_distribution(out[k]);
-    // Free means free of occupied voxels, whatever the weight.
-    EXPECT_EQ(out[k].free_mask, 0b11011u) << "weight " << weights[k];
-    EXPECT_FALSE(out[k].failed);
-  }
-  // unknown = free: no second sweep, mirror paths equal, the tie goes to the left.
-  for (std::size_t i = 0; i < 5; ++i) {
-    EXPECT_EQ(out[0].observed_distance[i], out[0].free_distance[i]);
-  }
-  EXPECT_FLOAT_EQ(out[0].probability[1], out[0].probability[3]);
-  EXPECT_EQ(out[0].chosen, 1u);
-  for (std::size_t k = 1; k < weights.size(); ++k) {
-    const PathPrediction& p = out[k];
-    EXPECT_FLOAT_EQ(p.free_distance[1], p.path_length);
-    EXPECT_LT(p.observed_distance[1], 0.5f * p.path_length);  // enters the unknown left side
-    EXPECT_FLOAT_EQ(p.observed_distance[3], p.path_length);   // seen free all the way
-    EXPECT_LE(p.observed_distance[2], p.free_distance[2]);
-    EXPECT_GT(p.probability[3], p.probability[1]) << "weight " << weights[k];
-    EXPECT_GT(p.probability[4], p.probability[0]) << "weight " << weights[k];
-    EXPECT_EQ(p.chosen, 3u) << "weight " << weights[k];
-  }
-  // The lower the weight, the stronger the preference.
-  EXPECT_GT(out[2].probability[3] / out[2].probability[1],
-            out[1].probability[3] / out[1].probability[1]);
-}
-
-TEST(MarkovPredictor, WithoutTheNonFreeQueryEverythingNotOccupiedCountsAsObserved) {
-  BoxWorld w;  // its view has no non-free query
-  build_wall_with_left_opening(w);
-  ASSERT_FALSE(w.query().knows_unknown());
-  MarkovPredictorConfig c = markov_config(5);
-  MarkovPredictor plain;
-  ASSERT_EQ(plain.init(c), Status::kOk);
-  c.unknown_weight = 0.0f;
-  MarkovPredictor weighted;
-  ASSERT_EQ(weighted.init(c), Status::kOk);
-  for (int f = 0; f < 5; ++f) {
-    const ObstacleState o = walker(8, -0.3f + 0.1f * static_cast<float>(f), 0.0f, 1.0f, 0.0f);
-    PathPrediction a;
-    PathPrediction b;
-    ASSERT_EQ(plain.predict(&o, 1, w.query(), &a), Status::kOk);
-    ASSERT_EQ(weighted.predict(&o, 1, w.query(), &b), Status::kOk);
-    EXPECT_EQ(a.chosen, b.chosen);
-    for (std::size_t i = 0; i < 5; ++i) {
-      EXPECT_EQ(b.observed_distance[i], b.free_distance[i]);
-      EXPECT_EQ(a.probability[i], b.probability[i]);
-    }
-  }
-}
-
-TEST(MarkovPredictor, UnknownWeightIsValidated) {
-  MarkovPredictorConfig c = markov_config(5);
+  PathPrediction out;
   MarkovPredictor mp;
-  for (float good : {0.0f, 0.5f, 1.0f}) {
-    c.unknown_weight = good;
-    EXPECT_EQ(mp.init(c), Status::kOk);
-  }
-  for (float bad : {-0.1f, 1.01f, std::nanf(""), INFINITY}) {
-    c.unknown_weight = bad;
-    EXPECT_EQ(mp.init(c), Status::kInvalidArgument);
-  }
-  EXPECT_EQ(mp.config().unknown_weight, 1.0f);  // a rejected config changed nothing
+  ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
+  ASSERT_EQ(mp.predict(&o, 1, q, &out), Status::kOk);
+  expect_valid_distribution(out);
+  EXPECT_EQ(out.free_mask, 0b11011u);
+  EXPECT_FALSE(out.failed);
+  EXPECT_FLOAT_EQ(out.probability[1], out.probability[3]);
+  EXPECT_EQ(out.chosen, 1u);
 }
 
 TEST(MarkovPredictor, ChoosesTheMostLikelyFreePathOverAKnownCollision) {
@@ -1054,266 +936,6 @@ TEST(MarkovPredictor, NoFreePathKeepsTheMostLikelyOne) {
   expect_valid_distribution(out[1]);
 }
 
-// ---------------------------------------------------------------------------------------------
-// The depth image as a second environment source (DepthCheckConfig, docs/predictor.md).
-
-/// A depth frame of a scene seen by a 320x240 camera (56 x 44 degrees) at `camera_at`, looking
-/// along map yaw `yaw`, pitched down by `pitch` (radians).
-struct DepthFrame {
-  CameraIntrinsics cam;
-  Pose pose;
-  std::vector<std::uint16_t> pixels;
-  DepthEvidence evidence;
-
-  explicit DepthFrame(const Eigen::Vector3f& camera_at = Eigen::Vector3f(0.0f, 2.5f, 1.2f),
-                      float yaw = -0.35f, float pitch = 0.0f) {
-    cam.width = 320;
-    cam.height = 240;
-    cam.fx = cam.fy = 300.0f;
-    cam.cx = 160.0f;
-    cam.cy = 120.0f;
-    pose = test::level_camera(camera_at, yaw);
-    // A positive rotation about the camera's left axis turns its view down.
-    const Eigen::Vector3f left =
-        Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ()) * Eigen::Vector3f::UnitY();
-    pose.rotation = (Eigen::AngleAxisf(pitch, left) * pose.rotation).normalized();
-  }
-  const DepthEvidence* render(const test::WorldScene& scene) {
-    evidence = DepthEvidence::of(test::render(scene, cam, pose, pixels), cam, pose);
-    return &evidence;
-  }
-};
-
-MarkovPredictorConfig depth_config() {
-  MarkovPredictorConfig c = markov_config(5);
-  c.depth_check.enabled = true;
-  return c;
-}
-
-TEST(MarkovPredictorDepth, WallBeyondTheMapRangeInTheImageBlocksThePathThroughIt) {
-  // The map knows nothing (an empty world: the wall is beyond its range); the frame shows a
-  // wall 2 m ahead of a walker 5 m out (seen from the side: straight behind a walker who walks
-  // away from the camera lies its own shadow, which the frame cannot see).
-  BoxWorld map;
-  DepthFrame f;
-  test::WorldScene scene;
-  scene.boxes = {test::person_at(5.0f, 0.0f), wall(7.0f, -1.0f, 7.2f, 1.0f)};
-  const DepthEvidence* depth = f.render(scene);
-  const ObstacleState o = walker(1, 5.0f, 0.0f, 1.2f, 0.0f);
-  PathPrediction map_only, with_depth;
-  MarkovPredictor a, b;
-  ASSERT_EQ(a.init(depth_config()), Status::kOk);
-  ASSERT_EQ(b.init(depth_config()), Status::kOk);
-  ASSERT_EQ(a.predict(&o, 1, map.query(), &map_only), Status::kOk);  // no frame: map only
-  ASSERT_EQ(b.predict(&o, 1, map.query(), depth, &with_depth), Status::kOk);
-  EXPECT_EQ(map_only.free_mask, 0x1Fu);
-  EXPECT_EQ(map_only.chosen, 2u);
-  EXPECT_EQ(map_only.depth_blocked_mask, 0u);
-
-  ASSERT_FALSE(with_depth.path_free(2));
-  EXPECT_TRUE(with_depth.depth_blocked_mask & (1u << 2));
-  // Met at the wall face (2 m), less the noise margin and one sample spacing.
-  EXPECT_GT(with_depth.free_distance[2], 1.4f);
-  EXPECT_LE(with_depth.free_distance[2], 2.05f);
-  // The 90-degree turns stay 1.3 m short of the wall: free, and seen free.
-  EXPECT_TRUE(with_depth.path_free(0));
-  EXPECT_TRUE(with_depth.path_free(4));
-  EXPECT_NE(with_depth.chosen, 2u);
-  EXPECT_FALSE(with_depth.failed);
-  expect_valid_distribution(with_depth);
-
-  // Disabled, the frame is ignored: identical to the map-only prediction.
-  MarkovPredictorConfig off = depth_config();
-  off.depth_check.enabled = false;
-  MarkovPredictor c;
-  ASSERT_EQ(c.init(off), Status::kOk);
-  PathPrediction ignored;
-  ASSERT_EQ(c.predict(&o, 1, map.query(), depth, &ignored), Status::kOk);
-  EXPECT_EQ(ignored.free_mask, map_only.free_mask);
-  EXPECT_EQ(ignored.chosen, map_only.chosen);
-  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(ignored.probability[i], map_only.probability[i]);
-}
-
-TEST(MarkovPredictorDepth, PathInFrontOfTheSurfaceIsFreeAndNoReturnKnowsNothing) {
-  BoxWorld map;
-  DepthFrame f(Eigen::Vector3f(0.0f, 0.0f, 1.2f), 0.0f);
-  test::WorldScene scene;
-  scene.boxes = {test::person_at(4.0f, 0.0f), wall(7.9f, -3.0f, 8.0f, 3.0f)};
-  const DepthEvidence* depth = f.render(scene);
-  const ObstacleState o = walker(1, 4.0f, 0.0f, 1.0f, 0.0f);  // paths end 0.9 m before the wall
-  MarkovPredictor mp;
-  ASSERT_EQ(mp.init(depth_config()), Status::kOk);
-  PathPrediction out;
-  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
-  EXPECT_EQ(out.free_mask, 0x1Fu);
-  EXPECT_EQ(out.depth_blocked_mask, 0u);
-  for (std::size_t i = 0; i < 5; ++i) EXPECT_FLOAT_EQ(out.free_distance[i], 3.0f);
-
-  // A frame without returns says nothing: the map's wall still blocks the straight path.
-  map.add_box(wall(6.0f, -0.5f, 6.1f, 0.5f));
-  std::fill(f.pixels.begin(), f.pixels.end(), std::uint16_t{0});
-  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
-  EXPECT_FALSE(out.path_free(2));
-  EXPECT_NEAR(out.free_distance[2], 2.0f, 0.15f);
-  EXPECT_EQ(out.depth_blocked_mask, 0u);
-}
-
-TEST(MarkovPredictorDepth, OwnPixelsAndOtherWalkersDoNotBlock) {
-  // The person is drawn 0.3 m ahead of its track (a lagging box): its body lies on the straight
-  // path just outside the own-body disc. A second walker stands on that path at 6.5 m.
-  BoxWorld map;
-  DepthFrame f;
-  test::WorldScene scene;
-  scene.boxes = {test::person_at(5.3f, 0.0f), test::person_at(6.5f, 0.0f)};
-  const DepthEvidence* depth = f.render(scene);
-  const std::array<ObstacleState, 2> both = {walker(1, 5.0f, 0.0f, 1.2f, 0.0f),
-                                             walker(2, 6.5f, 0.0f, 0.0f, 0.3f)};
-  LinearPredictorConfig lc;
-  ClearanceConfig clearance;
-  DepthSweep sweep;
-  sweep.evidence = depth;
-  sweep.config.enabled = true;
-  PathLibrary straight;
-  PathLibraryConfig pc;
-  pc.num_paths = 1;
-  ASSERT_EQ(straight.init(pc), Status::kOk);
-  PathSamples path;
-  straight.sample(0, both[0].position.head<2>(), both[0].velocity, &path);
-
-  // Both walkers excluded: free.
-  sweep.obstacles = both.data();
-  sweep.count = 2;
-  PathClearance c = sweep_path(map.query(), path, both[0], clearance, false, sweep);
-  EXPECT_TRUE(c.free);
-  EXPECT_FALSE(c.depth_blocked);
-  // Only itself excluded: the other walker's pixels are a surface 1.5 m ahead.
-  sweep.count = 1;
-  c = sweep_path(map.query(), path, both[0], clearance, false, sweep);
-  EXPECT_FALSE(c.free);
-  EXPECT_TRUE(c.depth_blocked);
-  EXPECT_GT(c.free_distance, 1.0f);
-  // Nothing excluded: its own (lagging) front surface blocks it at once.
-  sweep.count = 0;
-  const PathClearance own = sweep_path(map.query(), path, both[0], clearance, false, sweep);
-  EXPECT_FALSE(own.free);
-  EXPECT_LT(own.free_distance, 0.7f);
-
-  // Through the predictor, which excludes every obstacle of the call.
-  MarkovPredictor mp;
-  ASSERT_EQ(mp.init(depth_config()), Status::kOk);
-  std::array<PathPrediction, 2> out{};
-  ASSERT_EQ(mp.predict(both.data(), 2, map.query(), depth, out.data()), Status::kOk);
-  EXPECT_TRUE(out[0].path_free(2));
-  EXPECT_EQ(out[0].depth_blocked_mask, 0u);
-  (void)lc;
-}
-
-TEST(MarkovPredictorDepth, FloorDoesNotBlock) {
-  // A camera 3 m up, pitched down 30 degrees: rays through the walker's lower sweep heights
-  // meet the floor just beyond the swept points; a margin of 1 m (a very noisy camera) makes
-  // those floor pixels candidates, which the floor rule must discard.
-  BoxWorld map;
-  DepthFrame f(Eigen::Vector3f(0.0f, 2.5f, 3.0f), -0.35f, 0.5236f);
-  test::WorldScene scene;
-  scene.boxes = {test::person_at(4.0f, 0.0f)};
-  const DepthEvidence* depth = f.render(scene);
-  MarkovPredictorConfig cfg = depth_config();
-  cfg.depth_check.noise_margin = 1.0f;
-  cfg.clearance.height_levels = 4;
-  MarkovPredictor mp;
-  ASSERT_EQ(mp.init(cfg), Status::kOk);
-  ObstacleState o = walker(1, 4.0f, 0.0f, 1.0f, 0.0f);  // box bottom on the floor
-  PathPrediction out;
-  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
-  EXPECT_EQ(out.free_mask, 0x1Fu);
-  EXPECT_EQ(out.depth_blocked_mask, 0u);
-
-  // Control: with the box bottom 0.3 m under the floor, the floor counts from z = -0.1 and
-  // its pixels become surfaces.
-  o.position.z() -= 0.3f;
-  mp.reset();
-  ASSERT_EQ(mp.predict(&o, 1, map.query(), depth, &out), Status::kOk);
-  EXPECT_NE(out.depth_blocked_mask, 0u);
-}
-
-TEST(MarkovPredictorDepth, ConfigAndFrameAreValidatedAndBadInputChangesNothing) {
-  for (int bad = 0; bad < 6; ++bad) {
-    MarkovPredictorConfig c = depth_config();
-    if (bad == 0) c.depth_check.noise_margin = -0.1f;
-    if (bad == 1) c.depth_check.noise_quadratic = NAN;
-    if (bad == 2) c.depth_check.surface_thickness = -1.0f;
-    if (bad == 3) c.depth_check.min_depth = 0.0f;
-    if (bad == 4) c.depth_check.max_depth = c.depth_check.min_depth;
-    if (bad == 5) c.depth_check.max_depth = INFINITY;
-    MarkovPredictor mp;
-    EXPECT_EQ(mp.init(c), Status::kInvalidArgument) << bad;
-    EXPECT_EQ(validate(c.depth_check), Status::kInvalidArgument) << bad;
-  }
-  BoxWorld map;
-  DepthFrame f;
-  test::WorldScene scene;
-  scene.boxes = {wall(7.0f, -1.0f, 7.2f, 1.0f)};
-  const DepthEvidence good = *f.render(scene);
-  MarkovPredictor mp;
-  ASSERT_EQ(mp.init(depth_config()), Status::kOk);
-  const ObstacleState o = walker(1, 5.0f, 0.0f, 1.2f, 0.0f);
-  PathPrediction out;
-  ASSERT_EQ(mp.predict(&o, 1, map.query(), &good, &out), Status::kOk);
-  MarkovPredictor::Belief before{};
-  ASSERT_TRUE(mp.belief(1, &before));
-  out.track_id = 999;
-  DepthEvidence bad = good;
-  bad.depth.data = nullptr;
-  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kNullData);
-  bad = good;
-  bad.depth.width = 100;
-  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kWrongSize);
-  bad = good;
-  bad.origin.x() = NAN;
-  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kNonFinite);
-  bad = good;
-  bad.camera.fx = -1.0f;
-  EXPECT_EQ(mp.predict(&o, 1, map.query(), &bad, &out), Status::kInvalidArgument);
-  EXPECT_EQ(out.track_id, 999u);
-  MarkovPredictor::Belief after{};
-  ASSERT_TRUE(mp.belief(1, &after));
-  EXPECT_EQ(after, before);
-}
-
-TEST(MarkovPredictorDepth, ZeroAllocationsAndRepeatableWithAFrame) {
-  BoxWorld map;
-  DepthFrame f;
-  test::WorldScene scene;
-  scene.boxes = {test::person_at(5.0f, 0.0f), wall(7.0f, -1.0f, 7.2f, 1.0f)};
-  const DepthEvidence* depth = f.render(scene);
-  std::array<ObstacleState, 3> in = {walker(1, 5.0f, 0.0f, 1.2f, 0.0f),
-                                     walker(2, 4.0f, 1.0f, 0.8f, 0.5f),
-                                     walker(3, 6.0f, -1.0f, 0.5f, -1.0f)};
-  MarkovPredictor a, b;
-  ASSERT_EQ(a.init(depth_config()), Status::kOk);
-  ASSERT_EQ(b.init(depth_config()), Status::kOk);
-  std::array<PathPrediction, 3> out_a{}, out_b{};
-  std::size_t allocations = 0;
-  {
-    test::AllocationGuard guard;
-    for (int frame = 0; frame < 10; ++frame) {
-      if (!ok(a.predict(in.data(), in.size(), map.query(), depth, out_a.data()))) break;
-    }
-    allocations = guard.allocations();
-  }
-  EXPECT_EQ(allocations, 0u);
-  for (int frame = 0; frame < 10; ++frame) {
-    ASSERT_EQ(b.predict(in.data(), in.size(), map.query(), depth, out_b.data()), Status::kOk);
-  }
-  for (std::size_t k = 0; k < in.size(); ++k) {
-    EXPECT_EQ(out_a[k].chosen, out_b[k].chosen);
-    EXPECT_EQ(out_a[k].free_mask, out_b[k].free_mask);
-    EXPECT_EQ(std::memcmp(out_a[k].probability.data(), out_b[k].probability.data(),
-                          sizeof(float) * kMaxPaths),
-              0);
-  }
-}
-
 }  // namespace
 }  // namespace dynamap
 
@@ -1361,7 +983,7 @@ TEST(MarkovPredictorFarField, CorridorEndWallSeenOnlyEarlierMakesTheChoiceTurnBe
   MarkovPredictor mp;
   ASSERT_EQ(mp.init(markov_config(5)), Status::kOk);
   PathPrediction out;
-  ASSERT_EQ(mp.predict(&o, 1, empty.query(), nullptr, layer.get(), &out), Status::kOk);
+  ASSERT_EQ(mp.predict(&o, 1, empty.query(), layer.get(), &out), Status::kOk);
   EXPECT_FALSE(out.path_free(2));  // straight: into the remembered wall
   EXPECT_NE(out.far_blocked_mask & (1u << 2), 0u);
   ASSERT_TRUE(out.any_free);
@@ -1434,7 +1056,7 @@ TEST(MarkovPredictorFarField, ZeroAllocationsWithTheLayer) {
     test::AllocationGuard guard;
     for (int f = 0; f < 5; ++f) {
       (void)layer->update(view, cam, ahead, nullptr, 0);
-      (void)mp.predict(obs.data(), obs.size(), empty.query(), nullptr, layer.get(), out.data());
+      (void)mp.predict(obs.data(), obs.size(), empty.query(), layer.get(), out.data());
     }
     allocations = guard.allocations();
   }

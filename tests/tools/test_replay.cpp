@@ -316,28 +316,19 @@ TEST(Replay, BadParameterValueIsRefused) {
   EXPECT_NE(r.output.find("tracker.overlap_threshold"), std::string::npos) << r.output;
 }
 
-// The motion model is spelled "cv" or "imm"; anything else, and IMM noises that are not
-// positive, are refused before any frame is replayed.
+// The motion model is spelled "cv" or "imm"; anything else (the error names the key and the
+// accepted spellings), and IMM noises that are not positive, are refused before any frame is
+// replayed.
 TEST(Replay, BadMotionModelIsRefused) {
   RunResult r = replay_with_params("bad_model", "tracker:\n  kalman:\n    model: spline\n").result;
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.output.find("bad value for 'tracker.kalman.model'"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("bad value for 'tracker.kalman.model': 'spline'"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("cv or imm"), std::string::npos) << r.output;
   r = replay_with_params("bad_imm", "tracker:\n  kalman:\n    imm:\n      q_turn_rate: -1\n")
           .result;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("tracker"), std::string::npos) << r.output;
-}
-
-// The belief update is spelled compound or choice_only; the error
-// names the key and the accepted spellings.
-TEST(Replay, BadBeliefUpdateIsRefused) {
-  const RunResult r =
-      replay_with_params("bad_belief", "predictor:\n  belief_update: choice-only\n").result;
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.output.find("bad value for 'predictor.belief_update': 'choice-only'"),
-            std::string::npos)
-      << r.output;
-  EXPECT_NE(r.output.find("compound or choice_only"), std::string::npos) << r.output;
 }
 
 // The size limits are 3-vectors, written as YAML lists: three numbers are taken, anything else

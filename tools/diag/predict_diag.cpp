@@ -86,8 +86,7 @@ int run(int argc, char** argv) {
   std::cout << "frame,id,age,speed,radius_pred,radius_eval,l,chosen,prob_chosen,markov_fail,"
                "linear_fail,map_free_mask,true_free_mask,any_map_free,start_dist,hit_s,hit_x,"
                "hit_y,wall_occ,wall_free,wall_unknown,chosen_free_dist,max_free_dist,"
-               "straight_free_dist,gt_dist,free_dists,observed_dists,probs,cam_x,cam_y,x,y,vx,vy,"
-               "depth_mask,far_mask\n";
+               "straight_free_dist,gt_dist,free_dists,probs,cam_x,cam_y,x,y,vx,vy,far_mask\n";
   std::map<std::uint32_t, int> age;
   auto out = std::make_unique<FrameOutput>();
   PathSamples ps;
@@ -192,11 +191,10 @@ int run(int argc, char** argv) {
                 << pm.free_distance[pm.chosen] << "," << maxd << ","
                 << pm.free_distance[pm.num_paths / 2] << "," << gt_dist << ","
                 << joined(pm.free_distance, pm.num_paths) << ","
-                << joined(pm.observed_distance, pm.num_paths) << ","
                 << joined(pm.probability, pm.num_paths) << "," << frame.T_map_camera.translation.x()
                 << "," << frame.T_map_camera.translation.y() << "," << start.x() << "," << start.y()
-                << "," << ob->velocity.x() << "," << ob->velocity.y() << ","
-                << pm.depth_blocked_mask << "," << pm.far_blocked_mask << "\n";
+                << "," << ob->velocity.x() << "," << ob->velocity.y() << "," << pm.far_blocked_mask
+                << "\n";
     }
     age = next_age;
   }

@@ -174,8 +174,8 @@ class Pipeline {
   std::size_t collect_dynamic(const Frame& frame) noexcept;
   const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn, bool on_team,
                                         FrameWork& work) noexcept;
-  std::size_t predict(const Frame& frame, std::size_t n_dyn, const FarFieldLayer* far,
-                      FrameWork& work, FrameOutput& out) noexcept;
+  std::size_t predict(std::size_t n_dyn, const FarFieldLayer* far, FrameWork& work,
+                      FrameOutput& out) noexcept;
   void finish(const Frame& frame, const FrameClock& clock, const FrameWork& work,
               FrameOutput& out) noexcept;
 

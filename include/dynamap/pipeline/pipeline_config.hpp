@@ -108,9 +108,8 @@ struct WorstCaseWork {
 
 /// Worst-case work of `config` (meaningful for a configuration whose individual fields are
 /// valid). predictor_voxel_steps = (markov + linear baseline) sweeps over tracks x paths x
-/// clearance lines x height levels x (3 x horizon / map.resolution + 3 x (kMaxPathSamples - 1)),
-/// doubled when predictor.unknown_weight < 1 (a second sweep); horizon = the longer of
-/// predictor.paths.horizon_distance and slow_speed x slow_horizon_time.
+/// clearance lines x height levels x (3 x horizon / map.resolution + 3 x (kMaxPathSamples - 1));
+/// horizon = the longer of predictor.paths.horizon_distance and slow_speed x slow_horizon_time.
 WorstCaseWork worst_case_work(const PipelineConfig& config) noexcept;
 
 struct Parameter;

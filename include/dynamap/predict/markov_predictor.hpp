@@ -1,8 +1,7 @@
 // MarkovPredictor: environment-aware trajectory prediction (docs/design.md §4.6). Per track, a
 // belief P over the l library paths evolves as P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)),
-// where P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map (or,
-// with BeliefUpdate::kChoiceOnly, P_env only chooses and is not carried on). All
-// state is inline (fixed capacity); predict() never allocates and does bounded work.
+// where P_env = softmax(beta * Dist) rewards paths with a long free distance in the static map.
+// All state is inline (fixed capacity); predict() never allocates and does bounded work.
 #pragma once
 
 #include <array>
@@ -18,18 +17,6 @@
 
 namespace dynamap {
 
-/// How the environment term P_env enters a track's belief (docs/predictor.md, "Belief update
-/// modes"). In every mode the frame's choice is the most likely path of the belief times this
-/// frame's P_env (with choose_free), and PathPrediction::probability is that product, normalised.
-enum class BeliefUpdate : std::uint8_t {
-  /// P(t+1) = normalise((P(t) * P_trans) (.) P_env(t+1)), docs/design.md §4.6: the same wall seen
-  /// again is counted again every frame, so P_env compounds (the "lane-centre drift").
-  kCompound = 0,
-  /// P(t+1) = P(t) * P_trans (a new track starts from P_init): the belief is the chain's prior
-  /// alone and P_env is applied only to choose this frame's path, never carried to the next.
-  kChoiceOnly,
-};
-
 /// Path family, footprint check and the Markov chain's parameters.
 struct MarkovPredictorConfig {
   PathLibraryConfig paths{};
@@ -40,15 +27,6 @@ struct MarkovPredictorConfig {
   float sigma_init = 0.7853982f;   ///< of P_init around the straight path
   float sigma_trans = 0.7853982f;  ///< of each P_trans row around its diagonal
   float beta = 2.0f;  ///< 1/m: P_env = softmax(beta * free distance); 0 ignores the map
-  /// Weight, in [0, 1], of the stretch of a path that runs through space the map has never
-  /// observed (unknown voxels) in the free distance of P_env: Dist_i = observed_i +
-  /// unknown_weight * (free_i - observed_i), where observed_i is the arc length before the
-  /// footprint meets a voxel not observed free and free_i the one before an occupied voxel. The
-  /// map only knows what the camera saw within its range, and walls it has not seen are unknown:
-  /// counted as free (1, the original rule) they make every path look equally good and leave the
-  /// choice to the belief. Whether a path is free (free_mask, any_free, failed) still depends on
-  /// occupied voxels only. 1 skips the second sweep (cost as before).
-  float unknown_weight = 1.0f;
   /// Output the most likely of the paths that are free in the map, when at least one is, instead
   /// of the most likely path overall. P_env is soft (a path blocked at 2.9 m of a 3 m horizon
   /// scores nearly as well as a free one), so the plain maximum can pick a path the predictor
@@ -62,13 +40,6 @@ struct MarkovPredictorConfig {
   /// (docs/predictor.md, "Choice"), and with nothing in the map to tell them apart it picked
   /// turns into walls it had not seen. Only the choice changes, not the belief.
   bool straight_when_free = true;
-  /// The current depth frame as a second environment source next to the map (prediction.hpp,
-  /// DepthCheckConfig): Dist_i is the smaller of the two free distances, and a path is free
-  /// (free_mask, any_free, choose_free, failed) only when neither meets anything. Used only
-  /// when predict() is given the frame; enabled = false is the map-only predictor.
-  DepthCheckConfig depth_check{};
-  /// How P_env enters the belief; kCompound is docs/design.md §4.6 as written.
-  BeliefUpdate belief_update = BeliefUpdate::kCompound;
 };
 
 /// Slots of the per-track belief table (power of two, max load 7/8 >= kMaxTracks).
@@ -95,21 +66,11 @@ class MarkovPredictor {
                                const OccupancyQuery& map, PathPrediction* out) noexcept {
     return predict(obstacles, count, map, nullptr, out);
   }
-  /// The same with the current depth frame (read in place, not copied; nullptr = map only),
-  /// used when config().depth_check.enabled. Also kNullData / kWrongSize / kNonFinite /
-  /// kInvalidArgument for an unusable `depth` (validate(DepthEvidence)), state unchanged.
-  /// Extra work: count x l x samples x lines x height_levels pixel lookups at most, plus count
-  /// disc tests per lookup that finds a surface.
-  [[nodiscard]] Status predict(const ObstacleState* obstacles, std::size_t count,
-                               const OccupancyQuery& map, const DepthEvidence* depth,
-                               PathPrediction* out) noexcept {
-    return predict(obstacles, count, map, depth, nullptr, out);
-  }
   /// The same with the far-field layer (nullptr or not enabled: not used): its remembered walls
   /// block paths like the map's occupied voxels (prediction.hpp, sweep_path).
   [[nodiscard]] Status predict(const ObstacleState* obstacles, std::size_t count,
-                               const OccupancyQuery& map, const DepthEvidence* depth,
-                               const FarFieldLayer* far_field, PathPrediction* out) noexcept;
+                               const OccupancyQuery& map, const FarFieldLayer* far_field,
+                               PathPrediction* out) noexcept;
 
   /// Forgets every track.
   void reset() noexcept { beliefs_.clear(); }
@@ -125,25 +86,21 @@ class MarkovPredictor {
   double transition(std::size_t from, std::size_t to) const noexcept { return trans_[from][to]; }
   /// Number of tracks with a belief.
   std::size_t tracked() const noexcept { return beliefs_.size(); }
-  /// Copies the belief of `track_id` as kept for the next frame (kCompound: the posterior;
-  /// kChoiceOnly: P(t) * P_trans without P_env); false when the track is unknown.
+  /// Copies the belief of `track_id` as kept for the next frame (the posterior); false when the
+  /// track is unknown.
   bool belief(std::uint32_t track_id, Belief* out) const noexcept;
   /// Frames in which (P * P_trans) (.) P_env underflowed and the belief was restarted.
-  /// (kChoiceOnly: the belief is then P_init again.)
   std::uint64_t underflow_restarts() const noexcept { return underflow_restarts_; }
 
  private:
   void predict_one(const ObstacleState& obstacle, const OccupancyQuery& map,
-                   const DepthSweep& depth, const FarFieldLayer* far_field,
-                   PathPrediction* out) noexcept;
+                   const FarFieldLayer* far_field, PathPrediction* out) noexcept;
   // The steps of predict_one: sample and sweep every path (distances and masks into `out`) and
   // return P_env; update the track's belief with P_env and return the posterior; pick the path.
   Belief sweep_paths(const ObstacleState& obstacle, const OccupancyQuery& map,
-                     const DepthSweep& depth, const FarFieldLayer* far_field,
-                     PathPrediction* out) noexcept;
+                     const FarFieldLayer* far_field, PathPrediction* out) noexcept;
   Belief update_belief(std::uint32_t track_id, const Belief& env) noexcept;
   std::size_t choose_path(const Belief& post, const PathPrediction& out) const noexcept;
-  float support(const PathPrediction& out, std::size_t i) const noexcept;
 
   MarkovPredictorConfig config_{};
   PathLibrary library_{};

@@ -29,42 +29,23 @@ struct ObstacleState {
 };
 
 /// Non-owning, type-erased view of anything with OccupancyMap's
-/// `bool first_occupied_on_segment(a, b, Eigen::Vector3f* hit) const noexcept` and, optionally,
-/// `bool first_non_free_on_segment(a, b, Eigen::Vector3f* hit) const noexcept` (first voxel not
-/// observed free): a context pointer plus plain function pointers, so tests can pass a fake world
-/// and nothing is virtual. Without the second query (nullptr) every voxel that is not occupied
-/// counts as observed free.
+/// `bool first_occupied_on_segment(a, b, Eigen::Vector3f* hit) const noexcept`: a context pointer
+/// plus a plain function pointer, so tests can pass a fake world and nothing is virtual.
 struct OccupancyQuery {
   using SegmentFn = bool (*)(const void* context, const Eigen::Vector3f& a,
                              const Eigen::Vector3f& b, Eigen::Vector3f* hit) noexcept;
   const void* context = nullptr;
   SegmentFn first_occupied_on_segment = nullptr;
-  SegmentFn first_non_free_on_segment = nullptr;  ///< optional
 
   bool valid() const noexcept { return context != nullptr && first_occupied_on_segment != nullptr; }
   bool segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                Eigen::Vector3f* hit) const noexcept {
     return first_occupied_on_segment(context, a, b, hit);
   }
-  bool knows_unknown() const noexcept { return first_non_free_on_segment != nullptr; }
-  bool non_free_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
-                        Eigen::Vector3f* hit) const noexcept {
-    return knows_unknown() ? first_non_free_on_segment(context, a, b, hit) : segment(a, b, hit);
-  }
 
-  /// View of `map` (both queries), which must outlive the view.
+  /// View of `map`, which must outlive the view.
   template <class Map>
   static OccupancyQuery of(const Map& map) noexcept {
-    OccupancyQuery q = occupied_only(map);
-    q.first_non_free_on_segment = [](const void* ctx, const Eigen::Vector3f& a,
-                                     const Eigen::Vector3f& b, Eigen::Vector3f* hit) noexcept {
-      return static_cast<const Map*>(ctx)->first_non_free_on_segment(a, b, hit);
-    };
-    return q;
-  }
-  /// View of `map` that only knows occupied voxels (everything else counts as observed free).
-  template <class Map>
-  static OccupancyQuery occupied_only(const Map& map) noexcept {
     OccupancyQuery q;
     q.context = &map;
     q.first_occupied_on_segment = [](const void* ctx, const Eigen::Vector3f& a,
@@ -105,53 +86,6 @@ struct ClearanceConfig {
   float self_range_margin = 0.0084f;
 };
 
-/// The current depth frame as a second, bounded source of environment knowledge for the sweep
-/// (docs/predictor.md, "Options in more detail"). The map integrates hits only up to map.max_depth
-/// (5 m) and needs a few frames to mark a surface occupied, while the tracker follows people to
-/// ~8 m: a far walker's walls are unknown in the map, but they are in this frame. Each swept point
-/// is projected into the image: more than the noise margin m(d) in front of the measured surface
-/// it is seen free now; from there to m(d) + max(surface_thickness, the sample spacing) behind the
-/// surface, the path meets something; farther behind it (occluded), outside the image, with no
-/// return or out of the range below, the image knows nothing and the map's answer stands. (Only
-/// "behind the surface by more than m(d)" was tried too: corridor walls seen at a grazing angle
-/// then slip through, docs/notes/predictor-depth-check.md.) Pixels whose measured point is floor
-/// (below the obstacle's bottom + ground_clearance) or lies on a predicted obstacle (within its
-/// footprint radius + self_margin + m(d), top view: its own body and the other walkers) never
-/// count as a surface.
-struct DepthCheckConfig {
-  bool enabled = false;  ///< false: the map alone decides (docs/design.md §4.6)
-  /// Noise margin m(d) = noise_margin + noise_quadratic * d^2 of a pixel at depth d (stereo
-  /// noise grows with d^2): a point that close in front of the surface counts as at it.
-  float noise_margin = 0.05f;       ///< m, >= 0
-  float noise_quadratic = 0.0042f;  ///< m per m^2, >= 0 (one sigma of a typical stereo camera)
-  /// m behind the measured surface (beyond the margin) that still counts as inside the object;
-  /// at least the path's sample spacing is used, so no surface is stepped over. The object's
-  /// real thickness is unknown: much more makes a path just behind a thin pillar collide.
-  float surface_thickness = 0.1f;
-  float min_depth = 0.3f;  ///< m: nearer pixels (and points) are not used
-  float max_depth = 8.0f;  ///< m: farther pixels are not used (> min_depth)
-};
-
-/// kInvalidArgument when a DepthCheckConfig field is out of range.
-[[nodiscard]] Status validate(const DepthCheckConfig& c) noexcept;
-
-/// Non-owning view of the frame being processed plus the camera model and pose: the pixels are
-/// read in place (the frame must stay alive during predict(); Pipeline::process guarantees it).
-struct DepthEvidence {
-  DepthView depth{};
-  CameraIntrinsics camera{};
-  Eigen::Matrix3f R_cam_map = Eigen::Matrix3f::Identity();  ///< map -> camera rotation
-  Eigen::Vector3f t_cam_map = Eigen::Vector3f::Zero();      ///< map -> camera translation
-  Eigen::Vector3f origin = Eigen::Vector3f::Zero();         ///< camera centre, map frame
-
-  /// View of `depth` taken with `camera` at `T_map_camera`.
-  static DepthEvidence of(const DepthView& depth, const CameraIntrinsics& camera,
-                          const Pose& T_map_camera) noexcept;
-};
-
-/// kNullData / kWrongSize (validate_depth), kNonFinite (pose or intrinsics) for an unusable view.
-[[nodiscard]] Status validate(const DepthEvidence& e) noexcept;
-
 /// kInvalidArgument when a ClearanceConfig field is out of range.
 [[nodiscard]] Status validate(const ClearanceConfig& c) noexcept;
 /// kNonFinite / kInvalidArgument when an obstacle's numbers are unusable.
@@ -165,12 +99,7 @@ struct PathPrediction {
   std::size_t chosen = 0;
   std::array<float, kMaxPaths> probability{};    ///< per path, sums to 1
   std::array<float, kMaxPaths> free_distance{};  ///< per path, m (== path_length when free)
-  /// per path, m before the first voxel not observed free (== free_distance when not measured)
-  std::array<float, kMaxPaths> observed_distance{};
-  std::uint32_t free_mask = 0;  ///< bit i set when path i is collision-free
-  /// bit i set when the depth image (DepthCheckConfig) met a surface on path i where the map
-  /// held none (before the map's first hit, or on a path the map holds free)
-  std::uint32_t depth_blocked_mask = 0;
+  std::uint32_t free_mask = 0;                   ///< bit i set when path i is collision-free
   /// bit i set when the far-field layer met a remembered wall on path i where the map held none
   std::uint32_t far_blocked_mask = 0;
   float path_length = 0.0f;  ///< m, arc length of every path
@@ -188,10 +117,6 @@ struct PathPrediction {
 /// obstacle's validate(). Shared by both predictors so their errors are identical.
 [[nodiscard]] Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
                                               const OccupancyQuery& map,
-                                              const PathPrediction* out) noexcept;
-/// The same, and then validate(*depth) when `depth` is given.
-[[nodiscard]] Status validate_prediction_call(const ObstacleState* obstacles, std::size_t count,
-                                              const OccupancyQuery& map, const DepthEvidence* depth,
                                               const PathPrediction* out) noexcept;
 
 /// Copies `path` (map top view) into out->position/time/num_samples at height z.
