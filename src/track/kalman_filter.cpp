@@ -287,4 +287,9 @@ Eigen::Vector2f TrackFilter::velocity() const noexcept {
   return model_ == MotionModel::kTurnImm ? imm_.velocity() : cv_.velocity();
 }
 
+Eigen::Matrix2f TrackFilter::velocity_covariance() const noexcept {
+  return model_ == MotionModel::kTurnImm ? Eigen::Matrix2f(imm_.covariance().block<2, 2>(2, 2))
+                                         : Eigen::Matrix2f(cv_.covariance().block<2, 2>(2, 2));
+}
+
 }  // namespace dynamap

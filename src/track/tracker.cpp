@@ -408,6 +408,7 @@ void Tracker::publish() noexcept {
     t.out.box = Box3::from_center_size(Eigen::Vector3f(p.x(), p.y(), t.z_center), t.size);
     t.out.velocity = Eigen::Vector3f(v.x(), v.y(), 0.f);
     t.out.speed = v.norm();
+    t.out.velocity_covariance = t.kf.velocity_covariance();
     t.out.dynamic = t.label.dynamic();
     t.out.dynamic_votes = static_cast<std::uint32_t>(t.label.voter().dynamic_votes());
     t.out.votes = static_cast<std::uint32_t>(t.label.voter().votes());

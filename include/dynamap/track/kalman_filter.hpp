@@ -161,6 +161,8 @@ class TrackFilter {
   void shift_position(const Eigen::Vector2f& d) noexcept;
   Eigen::Vector2f position() const noexcept;
   Eigen::Vector2f velocity() const noexcept;
+  /// Covariance of velocity() ((m/s)^2): the filter's own, combined over the IMM's modes.
+  Eigen::Matrix2f velocity_covariance() const noexcept;
   MotionModel model() const noexcept { return model_; }
   const ConstantVelocityKalman& cv() const noexcept { return cv_; }
   const TurnImmKalman& imm() const noexcept { return imm_; }

@@ -116,9 +116,12 @@ struct TrackedObstacle {
   Box3 box;                                            ///< filtered centre, estimated full size
   Eigen::Vector3f velocity = Eigen::Vector3f::Zero();  ///< (vx, vy, 0) from the Kalman filter
   float speed = 0.f;                                   ///< |velocity| (m/s)
-  float continuity = 0.f;                              ///< last C_con (0 until computable)
-  bool dynamic = false;                                ///< label after voting
-  bool size_fixed = false;                             ///< size frozen after k' frames in view
+  /// Covariance of (vx, vy) from the Kalman filter ((m/s)^2): a planner can weight the velocity
+  /// by it. A new track starts wide (tracker.kalman.p0_velocity) and narrows as it is measured.
+  Eigen::Matrix2f velocity_covariance = Eigen::Matrix2f::Zero();
+  float continuity = 0.f;   ///< last C_con (0 until computable)
+  bool dynamic = false;     ///< label after voting
+  bool size_fixed = false;  ///< size frozen after k' frames in view
   /// The last matched detection touched the image border (within image_margin): the obstacle
   /// is cut by the view (near the camera or at the edge), its box holds the visible part only
   /// and its size is not fixed from it. Kept while the track coasts.
