@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common/text_io.hpp"
+#include "sim/random_scene.hpp"
 #include "sim/writer.hpp"
 
 using namespace dynamap::tools;
@@ -21,7 +22,8 @@ void usage(std::FILE* f) {
                "docs/tools.md).\n  SCENE is one of:");
   for (const auto& n : sim::scene_names()) std::fprintf(f, " %s", n.c_str());
   std::fprintf(f,
-               "\n  --frames N   number of 30 Hz frames (default: 300)\n"
+               "\n       dynamap-sim random --seed N [--out DIR] [--frames F] (a generated "
+               "scene)\n  --frames N   number of 30 Hz frames (default: 300)\n"
                "  --seed S     noise and scene jitter seed (default: 1)\n"
                "  --no-noise   ideal sensor: exact depth, no noise, losses or range limits\n"
                "               (alias --ideal-sensor)\n");
@@ -41,6 +43,7 @@ long long parse_arg(const char* flag, const char* value, long long lo, long long
 
 int main(int argc, char** argv) {
   try {
+    if (argc > 1 && std::strcmp(argv[1], "random") == 0) return sim::random_main(argc, argv);
     std::string scene_name, out;
     sim::SimulateOptions opt;
     bool frames_given = false;
