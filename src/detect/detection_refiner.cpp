@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "dynamap/detect/detect_params.hpp"
 #include "pixel_footprint.hpp"
 
 namespace dynamap {
@@ -37,19 +38,10 @@ constexpr float kFloorContact = 0.1f;
 // A part's rows must hold in-band pixels in this share of its columns (the detector's row fill).
 constexpr float kRowFill = 0.2f;
 
-bool in_range(float v, float lo, float hi) noexcept {
-  return std::isfinite(v) && v >= lo && v <= hi;
-}
-
 }  // namespace
 
 Status DetectionRefinerConfig::validate() const noexcept {
-  const bool good = std::isfinite(max_gap) && max_gap <= 1.f && std::isfinite(max_footprint) &&
-                    max_footprint > 0.f && max_footprint <= 5.f &&
-                    in_range(split_width, 0.1f, 5.f) && in_range(split_min_part, 0.05f, 2.f) &&
-                    in_range(split_dip, 0.f, 1.f) &&
-                    in_range(split_depth_gap, 2.f * kSplitDepthCell, 2.f);
-  return good ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(*this, params::kDetectionRefiner) ? Status::kOk : Status::kInvalidArgument;
 }
 
 Status DetectionRefiner::init(const DetectionRefinerConfig& config, float floor_top) noexcept {

@@ -7,6 +7,7 @@
 #include <limits>
 #include <utility>
 
+#include "dynamap/detect/detect_params.hpp"
 #include "pixel_footprint.hpp"
 
 namespace dynamap {
@@ -17,33 +18,7 @@ bool finite_positive(float x) noexcept {
 }
 
 bool config_valid(const UMapDetectorConfig& c) noexcept {
-  if (c.bins < 1 || c.bins > kMaxUMapBins) return false;
-  if (!std::isfinite(c.d_min) || !std::isfinite(c.d_max) || c.d_min < 0.f || c.d_max <= c.d_min) {
-    return false;
-  }
-  if (c.smoothing_radius < 0 || c.smoothing_radius > kMaxUMapSmoothingRadius) return false;
-  if (c.count_threshold < 1 || c.count_threshold > 65535) return false;
-  if (!std::isfinite(c.min_point_height) || c.min_point_height < 0.f) return false;
-  if (c.min_segment_length < 1 || c.min_segment_length > kMaxImageWidth) return false;
-  if (c.min_area < 1) return false;
-  if (!std::isfinite(c.band_factor) || c.band_factor < 1.f || c.band_factor > 10.f) return false;
-  if (!std::isfinite(c.row_fill_fraction) || c.row_fill_fraction < 0.f ||
-      c.row_fill_fraction > 1.f) {
-    return false;
-  }
-  if (c.max_row_gap < 0 || c.max_row_gap > kMaxImageHeight) return false;
-  if (c.min_run_rows < 1 || c.min_run_rows > kMaxImageHeight) return false;
-  if (!std::isfinite(c.max_width_fraction) || c.max_width_fraction <= 0.f ||
-      c.max_width_fraction > 1.f) {
-    return false;
-  }
-  if (!finite_positive(c.max_width) || !finite_positive(c.max_height) ||
-      !finite_positive(c.max_depth_extent)) {
-    return false;
-  }
-  if (c.max_candidates < 1) return false;
-  if (c.max_detections < 1 || c.max_detections > kMaxDetections) return false;
-  return true;
+  return all_in_range(c, params::kUMapDetector) && c.d_max > c.d_min;
 }
 
 bool intrinsics_valid(const CameraIntrinsics& cam) noexcept {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "dynamap/map/map_params.hpp"
+
 namespace dynamap {
 
 namespace {
@@ -18,15 +20,7 @@ constexpr float kMaxCoordinate = 1.0e5f;
 }  // namespace
 
 Status EverFreeConfig::validate() const noexcept {
-  const bool good = std::isfinite(resolution) && resolution >= 0.05f && resolution <= 1.f &&
-                    std::isfinite(z_min) && std::fabs(z_min) <= 10.f && layers >= 1 &&
-                    layers <= kEverFreeMaxLayers && pixel_step >= 1 && pixel_step <= 64 &&
-                    std::isfinite(max_range) && max_range > 0.f && max_range <= 20.f &&
-                    std::isfinite(surface_margin) && surface_margin >= 0.f &&
-                    std::isfinite(margin_per_range2) && margin_per_range2 >= 0.f &&
-                    burn_in_frames >= 1 && burn_in_frames <= 255 && forget_frames >= 1 &&
-                    forget_frames <= 255;
-  return good ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(*this, params::kEverFree) ? Status::kOk : Status::kInvalidArgument;
 }
 
 Status EverFreeGrid::init(const EverFreeConfig& config, float ground_height) noexcept {

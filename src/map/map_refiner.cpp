@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <limits>
 
+#include "dynamap/map/map_params.hpp"
+
 namespace dynamap {
 
 namespace {
@@ -24,16 +26,7 @@ bool box_valid(const Box3& b) noexcept {
 }  // namespace
 
 Status MapRefiner::init(const MapRefinerConfig& config, float ground_height) noexcept {
-  if (!std::isfinite(config.inflate) || config.inflate < 1.f || config.inflate > 10.f) {
-    return Status::kInvalidArgument;
-  }
-  if (!std::isfinite(ground_height) || !std::isfinite(config.floor_margin) ||
-      config.floor_margin < 0.f) {
-    return Status::kInvalidArgument;
-  }
-  if (config.static_frames > kMaxStaticFrames) return Status::kInvalidArgument;
-  if (config.max_voxels_per_box < 1 || config.max_voxels_per_box > kMaxRefinerVoxelsPerBox ||
-      config.min_support_voxels < 1) {
+  if (!all_in_range(config, params::kMapRefiner) || !std::isfinite(ground_height)) {
     return Status::kInvalidArgument;
   }
   config_ = config;

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 
+#include "dynamap/map/map_params.hpp"
 #include "segment_walk.hpp"
 
 namespace dynamap {
@@ -79,55 +80,25 @@ void OccupancyMap::set_worker_hook(WorkerHook hook) noexcept {
 
 namespace {
 
-// Every rule init() applies to a configuration on its own (PipelineConfig's table names them).
+// Every rule init() applies to a configuration on its own: the ranges of params::kOccupancyMap,
+// then the relations between fields (PipelineConfig's validate() names them).
 bool config_valid(const OccupancyMapConfig& c) noexcept {
-  const auto prob_ok = [](float p) { return std::isfinite(p) && p > 0.f && p < 1.f; };
-  if (!prob_ok(c.prob_hit) || !prob_ok(c.prob_miss) || !prob_ok(c.prob_min) ||
-      !prob_ok(c.prob_max) || !prob_ok(c.prob_occupied)) {
-    return false;
-  }
-  if (!(c.prob_min < c.prob_miss && c.prob_miss < 0.5f && 0.5f < c.prob_hit &&
-        c.prob_hit < c.prob_max && c.prob_min <= c.prob_occupied && c.prob_occupied < c.prob_max)) {
+  if (!all_in_range(c, params::kOccupancyMap)) return false;
+  if (!(c.prob_min < c.prob_miss && c.prob_hit < c.prob_max && c.prob_min <= c.prob_occupied &&
+        c.prob_occupied < c.prob_max)) {
     return false;
   }
   // The clamp range must fit int16 next to the kUnknown sentinel.
   if (std::fabs(logit(c.prob_min)) > 30.f || std::fabs(logit(c.prob_max)) > 30.f) {
     return false;
   }
-  if (!std::isfinite(c.resolution) || c.resolution < 0.01f || c.resolution > 10.f) {
-    return false;
-  }
-  if (!std::isfinite(c.min_depth) || c.min_depth < 0.f || !finite_positive(c.max_depth) ||
-      c.max_depth <= c.min_depth) {
-    return false;
-  }
-  if (c.pixel_margin < 0 || c.pixel_stride < 1 || c.pixel_stride > kMaxImageWidth) {
-    return false;
-  }
+  if (c.max_depth <= c.min_depth || c.no_return_free_depth > c.max_depth) return false;
   for (int a = 0; a < 3; ++a) {
     // Half extents up to 1000 voxels keep the whole local region far inside the key range.
-    if (!finite_positive(c.local_half_extent[a]) ||
-        c.local_half_extent[a] > 1000.f * c.resolution) {
-      return false;
-    }
+    if (c.local_half_extent[a] > 1000.f * c.resolution) return false;
   }
-  if (c.max_blocks < 1 || c.max_blocks > kMaxMapBlocks || c.max_rays_per_frame < 1 ||
-      c.max_rays_per_frame > kMaxRaysPerFrame || c.max_voxel_visits_per_frame < 1 ||
-      c.max_voxel_visits_per_frame > kMaxVoxelVisitsPerFrame) {
-    return false;
-  }
-  if (!std::isfinite(c.no_return_free_depth) || c.no_return_free_depth < 0.f ||
-      c.no_return_free_depth > c.max_depth) {
-    return false;
-  }
-  if (c.free_ray_early_stop < 0) return false;
-  if (c.carve_tiles < 0 || c.carve_tiles > kMaxCarveTiles || c.threads < 1 ||
-      c.threads > kMaxMapThreads || (c.threads > 1 && c.carve_tiles == 0) ||
-      c.helper_fifo_priority < 0 || c.helper_fifo_priority > 99 || c.helper_first_cpu < -1 ||
-      c.helper_first_cpu + c.threads - 2 > kMaxCpuIndex) {
-    return false;
-  }
-  return true;
+  return (c.threads == 1 || c.carve_tiles > 0) &&
+         c.helper_first_cpu + c.threads - 2 <= kMaxCpuIndex;
 }
 
 // Blocks per axis of the dense per-frame grid over the local region, +1 block margin each side.

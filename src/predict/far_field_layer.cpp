@@ -6,20 +6,12 @@
 
 #include <Eigen/Geometry>
 
+#include "dynamap/predict/predict_params.hpp"
+
 namespace dynamap {
 
-namespace {
-bool finite_at_least(float v, float lo) noexcept {
-  return std::isfinite(v) && v >= lo;
-}
-}  // namespace
-
 Status validate(const FarFieldConfig& c) noexcept {
-  if (!std::isfinite(c.cell_size) || c.cell_size < 0.05f || c.cell_size > 1.0f) {
-    return Status::kInvalidArgument;
-  }
-  if (!finite_at_least(c.hit_min_range, 0.0f)) return Status::kInvalidArgument;
-  if (!std::isfinite(c.max_range) || c.max_range <= c.hit_min_range || c.max_range > 25.0f) {
+  if (!all_in_range(c, params::kFarField) || c.max_range <= c.hit_min_range) {
     return Status::kInvalidArgument;
   }
   // Every range bin of a column must fit, and the grid must hold the range on every side.
@@ -27,23 +19,9 @@ Status validate(const FarFieldConfig& c) noexcept {
       2.0f * c.max_range / c.cell_size > static_cast<float>(kFarFieldCellsPerSide) - 2.0f) {
     return Status::kInvalidArgument;
   }
-  if (!std::isfinite(c.min_height) || !std::isfinite(c.max_height) ||
-      c.max_height <= c.min_height || !std::isfinite(c.wall_height) ||
-      c.wall_height < c.min_height || c.wall_height > c.max_height) {
-    return Status::kInvalidArgument;
-  }
-  if (!finite_at_least(c.noise_margin, 0.0f) || !finite_at_least(c.noise_quadratic, 0.0f)) {
-    return Status::kInvalidArgument;
-  }
-  if (c.pixel_stride < 1 || c.pixel_stride > 16 || c.min_pixels < 1) {
-    return Status::kInvalidArgument;
-  }
-  if (c.hit_evidence < 1 || c.hit_evidence > 100 || c.free_evidence < 0 || c.free_evidence > 100 ||
-      c.max_evidence < c.hit_evidence || c.max_evidence > 127) {
-    return Status::kInvalidArgument;
-  }
-  if (c.memory_frames < 1) return Status::kInvalidArgument;
-  return Status::kOk;
+  const bool heights_ok =
+      c.max_height > c.min_height && c.wall_height >= c.min_height && c.wall_height <= c.max_height;
+  return heights_ok && c.max_evidence >= c.hit_evidence ? Status::kOk : Status::kInvalidArgument;
 }
 
 Status FarFieldLayer::init(const FarFieldConfig& config, float ground_height) noexcept {

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "dynamap/core/fixed_vector.hpp"
+#include "dynamap/predict/predict_params.hpp"
 
 namespace dynamap {
 
@@ -39,20 +40,14 @@ bool normalise(std::size_t n, Belief* v) noexcept {
   return true;
 }
 
-bool positive_finite(float v) noexcept {
-  return std::isfinite(v) && v > 0.0f;
-}
-
 }  // namespace
 
 Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
   PathLibrary lib;
   if (!ok(lib.init(c.paths))) return Status::kInvalidArgument;
-  if (!ok(validate(c.clearance))) return Status::kInvalidArgument;
-  if (!positive_finite(c.sigma_init) || !positive_finite(c.sigma_trans)) {
+  if (!ok(validate(c.clearance)) || !all_in_range(c, params::kMarkovPredictor)) {
     return Status::kInvalidArgument;
   }
-  if (!std::isfinite(c.beta) || c.beta < 0.0f) return Status::kInvalidArgument;
 
   config_ = c;
   library_ = lib;

@@ -3,29 +3,17 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamap/predict/predict_params.hpp"
+
 namespace dynamap {
 
 namespace {
-constexpr float kPi = 3.14159265358979f;
 /// Below this speed (m/s) the velocity direction is meaningless; heading defaults to +x.
 constexpr float kMinHeadingSpeed = 1e-6f;
-
-bool positive_finite(float v) noexcept {
-  return std::isfinite(v) && v > 0.0f;
-}
 }  // namespace
 
 Status PathLibrary::init(const PathLibraryConfig& c) noexcept {
-  if (c.num_paths < 1 || c.num_paths > kMaxPaths) return Status::kInvalidArgument;
-  if (!std::isfinite(c.max_heading_change) || c.max_heading_change < 0.0f ||
-      c.max_heading_change > kPi) {
-    return Status::kInvalidArgument;
-  }
-  if (!positive_finite(c.turn_curvature) || !positive_finite(c.horizon_distance) ||
-      !positive_finite(c.slow_horizon_time) || !positive_finite(c.sample_interval)) {
-    return Status::kInvalidArgument;
-  }
-  if (!std::isfinite(c.slow_speed) || c.slow_speed < 0.0f) return Status::kInvalidArgument;
+  if (!all_in_range(c, params::kPathLibrary)) return Status::kInvalidArgument;
   config_ = c;
   return Status::kOk;
 }

@@ -5,24 +5,12 @@
 
 #include "dynamap/predict/detail/path_sweep.hpp"
 #include "dynamap/predict/far_field_layer.hpp"
+#include "dynamap/predict/predict_params.hpp"
 
 namespace dynamap {
 
 Status validate(const ClearanceConfig& c) noexcept {
-  if (c.max_lines < 1 || c.max_lines > kMaxClearanceLines) return Status::kInvalidArgument;
-  if (!std::isfinite(c.line_spacing) || c.line_spacing <= 0.0f) return Status::kInvalidArgument;
-  if (c.height_levels < 1 || c.height_levels > kMaxHeightLevels) return Status::kInvalidArgument;
-  if (!std::isfinite(c.chord_tolerance) || c.chord_tolerance < 0.0f) {
-    return Status::kInvalidArgument;
-  }
-  if (!std::isfinite(c.ground_clearance) || c.ground_clearance < 0.0f) {
-    return Status::kInvalidArgument;
-  }
-  if (!std::isfinite(c.self_margin) || c.self_margin < 0.0f) return Status::kInvalidArgument;
-  if (!std::isfinite(c.self_range_margin) || c.self_range_margin < 0.0f) {
-    return Status::kInvalidArgument;
-  }
-  return Status::kOk;
+  return all_in_range(c, params::kClearance) ? Status::kOk : Status::kInvalidArgument;
 }
 
 Status validate(const ObstacleState& o) noexcept {

@@ -2,14 +2,13 @@
 
 #include <cmath>
 
+#include "dynamap/track/track_params.hpp"
+
 namespace dynamap {
 
 Status ContinuityConfig::validate() const noexcept {
-  const bool good = displacement_frames >= 1 && vote_window >= 1 && vote_window <= kMaxVoteWindow &&
-                    dynamic_votes <= vote_window && static_votes < dynamic_votes &&
-                    std::isfinite(continuity_threshold) && std::isfinite(min_speed) &&
-                    min_size.allFinite() && max_size.allFinite() &&
-                    (min_size.array() >= 0.f).all() && (min_size.array() <= max_size.array()).all();
+  const bool good = all_in_range(*this, params::kContinuity) && dynamic_votes <= vote_window &&
+                    static_votes < dynamic_votes && (min_size.array() <= max_size.array()).all();
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 

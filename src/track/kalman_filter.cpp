@@ -6,30 +6,17 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
+#include "dynamap/track/track_params.hpp"
+
 namespace dynamap {
 
-namespace {
-bool positive_finite(float v) noexcept {
-  return std::isfinite(v) && v > 0.f;
-}
-}  // namespace
-
 Status ImmConfig::validate() const noexcept {
-  const bool good = positive_finite(q_accel_straight) && positive_finite(q_accel_turn) &&
-                    positive_finite(q_turn_rate) && positive_finite(p0_turn_rate) &&
-                    positive_finite(max_turn_rate) && positive_finite(mean_straight_time) &&
-                    positive_finite(mean_turn_time);
-  return good ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(*this, params::kImm) ? Status::kOk : Status::kInvalidArgument;
 }
 
 Status KalmanConfig::validate() const noexcept {
-  const bool known_model =
-      model == MotionModel::kConstantVelocity || model == MotionModel::kTurnImm;
-  const bool good = positive_finite(p0_position) && positive_finite(p0_velocity) &&
-                    positive_finite(q_position) && positive_finite(q_velocity) &&
-                    positive_finite(r_position) && positive_finite(r_velocity) &&
-                    positive_finite(q_reference_dt) && known_model && ok(imm.validate());
-  return good ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(*this, params::kKalman) && ok(imm.validate()) ? Status::kOk
+                                                                    : Status::kInvalidArgument;
 }
 
 void ConstantVelocityKalman::reset(const Eigen::Vector4f& state,

@@ -1,11 +1,13 @@
 #include "dynamap/track/label_state.hpp"
 
+#include "dynamap/track/track_params.hpp"
+
 namespace dynamap {
 
 Status LabelConfig::validate(std::size_t vote_window) const noexcept {
-  const bool good = early_votes <= vote_window && dynamic_hold_frames <= 100000 &&
-                    hold_min_dynamic_frames >= 1 && hold_min_dynamic_frames < kMaxLabelCount;
-  return good ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(*this, params::kLabel) && early_votes <= vote_window
+             ? Status::kOk
+             : Status::kInvalidArgument;
 }
 
 void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexcept {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "dynamap/track/track_params.hpp"
+
 namespace dynamap {
 
 namespace {
@@ -38,22 +40,9 @@ Status TrackerConfig::validate() const noexcept {
       !ok(label.validate(continuity.vote_window))) {
     return Status::kInvalidArgument;
   }
-  if (!std::isfinite(max_static_share) || max_static_share < 0.f || max_static_share > 1.f) {
-    return Status::kInvalidArgument;
-  }
-  const bool good =
-      std::isfinite(overlap_threshold) && overlap_threshold > 0.f && overlap_threshold <= 1.f &&
-      std::isfinite(centre_gate) && centre_gate >= 0.f && std::isfinite(size_fix_max_depth) &&
-      size_fix_max_depth > 0.f && std::isfinite(noise_reference_depth) &&
-      noise_reference_depth >= 0.f && std::isfinite(max_extent_change_ratio) &&
-      std::isfinite(max_round_footprint) && max_round_footprint >= 0.f &&
-      std::isfinite(max_coast_time) && max_coast_time > 0.f && std::isfinite(ever_free_share) &&
-      ever_free_share > 0.f && ever_free_share <= 1.f &&
-
-      history_length + 1 <= kMaxTrackHistory &&
-      continuity.displacement_frames + 1 <= history_length && box_history_length >= 1 &&
-      box_history_length <= kMaxBoxHistory && size_fix_frames >= 1 &&
-      early_displacement_frames < continuity.displacement_frames && image_margin >= 0;
+  if (!all_in_range(*this, params::kTracker)) return Status::kInvalidArgument;
+  const bool good = continuity.displacement_frames + 1 <= history_length &&
+                    early_displacement_frames < continuity.displacement_frames;
   return good ? Status::kOk : Status::kInvalidArgument;
 }
 

@@ -38,13 +38,8 @@ struct DynamicRegionCleanerConfig {
   std::size_t max_voxels_per_frame = 100000;  ///< cap on voxels examined per frame (all tracks)
   std::size_t max_purge_per_frame = 4096;     ///< cap on expired history entries purged per frame
 
-  Status validate() const noexcept {
-    const bool good = frames >= 1 && frames <= kMaxBoxHistory && std::isfinite(inflation) &&
-                      inflation >= 1.f && std::isfinite(z_margin) && z_margin >= 0.f &&
-                      max_voxels_per_frame >= 1 &&
-                      max_voxels_per_frame <= kMaxCleanerVoxelsPerFrame;
-    return good ? Status::kOk : Status::kInvalidArgument;
-  }
+  /// kInvalidArgument when a field is outside its range (params::kDynamicRegionCleaner).
+  Status validate() const noexcept;
 };
 
 /// What the last clean() did.

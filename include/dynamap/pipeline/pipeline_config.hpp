@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "dynamap/core/parameter.hpp"
 #include "dynamap/core/status.hpp"
 #include "dynamap/core/types.hpp"
 #include "dynamap/detect/detection_refiner.hpp"
@@ -81,9 +82,6 @@ inline constexpr std::size_t kMaxPipelineVoxelVisitsPerFrame = 2'000'000;
 /// Half extent of the map's local region per axis, in voxels (map.local_half_extent /
 /// map.resolution): bounds one ray's walk to about 3 x this many voxels (default 50 / 50 / 30).
 inline constexpr float kMaxLocalHalfExtentVoxels = 1000.f;
-/// Map voxel size range (m).
-inline constexpr float kMinMapResolution = 0.01f;
-inline constexpr float kMaxMapResolution = 10.f;
 /// Voxels the refiner examines per frame: max_detections x 2 passes x refiner.max_voxels_per_box
 /// (default 32 x 2 x 16384 = 1'048'576).
 inline constexpr std::size_t kMaxRefinerVoxelsPerFrame = 2'097'152;
@@ -112,7 +110,8 @@ struct WorstCaseWork {
 /// horizon = the longer of predictor.paths.horizon_distance and slow_speed x slow_horizon_time.
 WorstCaseWork worst_case_work(const PipelineConfig& config) noexcept;
 
-struct Parameter;
+/// A PipelineConfig field's table entry (parameters.hpp).
+using Parameter = Param<PipelineConfig>;
 
 /// Result of PipelineConfig validation: the status, the first offending field and why.
 /// describe() (parameters.hpp) writes it as one line with the field's valid range.

@@ -51,8 +51,8 @@ struct LabelConfig {
   std::size_t dynamic_hold_frames = 90;
   std::size_t hold_min_dynamic_frames = 30;  ///< frames labelled dynamic before a hold applies
 
-  /// kInvalidArgument unless early_votes <= vote_window, dynamic_hold_frames <= 100000 and
-  /// 1 <= hold_min_dynamic_frames < kMaxLabelCount.
+  /// kInvalidArgument when a field is outside its range (params::kLabel, track_params.hpp) or
+  /// early_votes > vote_window.
   Status validate(std::size_t vote_window) const noexcept;
 };
 

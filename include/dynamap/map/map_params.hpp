@@ -1,0 +1,93 @@
+// Parameter tables of the map stage: Occupancy map, map refiner, ever-free grid and dynamic-region
+// cleaner. One row per config field (core/parameter.hpp): member path, unit, valid range, tier,
+// help; the default is the struct's member initialiser. The configs' validate() checks these
+// ranges; the pipeline assembles the tables into PipelineConfig's (src/pipeline/parameters.cpp).
+#pragma once
+
+#include "dynamap/core/parameter.hpp"
+#include "dynamap/map/dynamic_region_cleaner.hpp"
+#include "dynamap/map/ever_free_grid.hpp"
+#include "dynamap/map/map_refiner.hpp"
+#include "dynamap/map/occupancy_map.hpp"
+
+namespace dynamap::params {
+using namespace param_rows;  // NOLINT(google-build-using-namespace): U, C, X, kOpen, ...
+
+/// Map voxel size range (m).
+inline constexpr float kMinMapResolution = 0.01f;
+inline constexpr float kMaxMapResolution = 10.f;
+
+/// The parameters of OccupancyMapConfig, one row per field (PipelineConfig prefix "map.").
+inline constexpr Param<OccupancyMapConfig> kOccupancyMap[] = {
+    // clang-format off
+    {DYNAMAP_PARAM(OccupancyMapConfig, resolution), U, "m", kMinMapResolution, kMaxMapResolution, kClosed, kClosed, "voxel edge"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, prob_hit), X, "", 0.5, 1, kOpen, kOpen, "occupancy probability of a hit"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, prob_miss), X, "", 0, 0.5, kOpen, kOpen, "occupancy probability of a miss (ray passes through)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, prob_min), X, "", 0x1p-20, 0.5, kClosed, kOpen, "lower clamp of a voxel's probability"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, prob_max), X, "", 0.5, 1, kOpen, kOpen, "upper clamp of a voxel's probability"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, prob_occupied), X, "", 0, 1, kOpen, kOpen, "a voxel at or above this is occupied"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, min_depth), X, "m", 0, kInf, kClosed, kOpen, "nearer measurements are dropped"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, max_depth), U, "m", 0, kInf, kOpen, kOpen, "map range: deeper pixels carve free space up to this depth only"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, no_return_free_depth), X, "m", 0, kInf, kClosed, kOpen, "0: a pixel with no measurement (0) is unknown; d > 0: 0 pixels inside large no-return regions (sky, a hall beyond range) carve free space up to d (<= map.max_depth)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, pixel_margin), X, "px", 0, kMaxImageHeight, kClosed, kClosed, "image border left out of the map update"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, pixel_stride), C, "px", 1, kMaxImageWidth, kClosed, kClosed, "every n-th pixel of every n-th row is a ray"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, local_half_extent), U, "m", 0, kInf, kOpen, kOpen, "only this box around the camera is updated (per axis, <= 1000 voxels)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, max_blocks), C, "", 1, kMaxMapBlocks, kClosed, kClosed, "voxel blocks the hashed grid may hold (memory is reserved for kMaxMapBlocks)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, max_rays_per_frame), C, "", 1, kMaxRaysPerFrame, kClosed, kClosed, "work cap: rays cast per frame"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, max_voxel_visits_per_frame), C, "", 1, kMaxVoxelVisitsPerFrame, kClosed, kClosed, "work cap: voxel steps of all rays per frame"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, merge_rays_per_voxel), X, "", 0, 1, kClosed, kClosed, "cast one ray per distinct end voxel instead of one per pixel"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, free_ray_early_stop), X, "voxels", 0, kInf, kClosed, kOpen, "stop a free ray after this many voxels an earlier ray marked (0: exact walk)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, carve_tiles), X, "", 0, kMaxCarveTiles, kClosed, kClosed, "free-space carving in this many image column strips (0: one walk; the map depends on it, not on threads)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, threads), C, "", 1, kMaxMapThreads, kClosed, kClosed, "threads integrating a frame, the caller included (> 1 needs map.carve_tiles > 0)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, helper_fifo_priority), X, "", 0, 99, kClosed, kClosed, "SCHED_FIFO priority of the map's helper threads (0: the policy of the thread calling init())"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, helper_first_cpu), X, "", -1, kMaxCpuIndex, kClosed, kClosed, "pin map helper m to CPU helper_first_cpu + m - 1 (-1: no pinning)"},
+    // clang-format on
+};
+static_assert(paths_unique(kOccupancyMap));
+
+/// The parameters of MapRefinerConfig, one row per field (PipelineConfig prefix "refiner.").
+inline constexpr Param<MapRefinerConfig> kMapRefiner[] = {
+    // clang-format off
+    {DYNAMAP_PARAM(MapRefinerConfig, inflate), X, "", 1, 10, kClosed, kClosed, "raw box extents are grown by this before the map search"},
+    {DYNAMAP_PARAM(MapRefinerConfig, floor_margin), X, "m", 0, kInf, kClosed, kOpen, "voxels below ground_height + this are floor"},
+    {DYNAMAP_PARAM(MapRefinerConfig, max_voxels_per_box), C, "", 1, kMaxRefinerVoxelsPerBox, kClosed, kClosed, "work cap: voxels examined per box and pass"},
+    {DYNAMAP_PARAM(MapRefinerConfig, min_support_voxels), X, "", 1, kInf, kClosed, kOpen, "fewer occupied voxels keep the raw box"},
+    {DYNAMAP_PARAM(MapRefinerConfig, static_frames), X, "frames", 0, kMaxStaticFrames, kClosed, kClosed, "a voxel occupied this long counts as long-seen for Detection::static_share"},
+    // clang-format on
+};
+static_assert(paths_unique(kMapRefiner));
+
+/// The parameters of EverFreeConfig, one row per field (PipelineConfig prefix "ever_free.").
+inline constexpr Param<EverFreeConfig> kEverFree[] = {
+    // clang-format off
+    {DYNAMAP_PARAM(EverFreeConfig, enabled), X, "", 0, 1, kClosed, kClosed, "keep the ever-free grid and use it as dynamic evidence"},
+    {DYNAMAP_PARAM(EverFreeConfig, resolution), X, "m", 0.05, 1, kClosed, kClosed, "cell edge"},
+    {DYNAMAP_PARAM(EverFreeConfig, z_min), X, "m", -10, 10, kClosed, kClosed, "bottom of the lowest layer above the ground"},
+    {DYNAMAP_PARAM(EverFreeConfig, layers), C, "", 1, kEverFreeMaxLayers, kClosed, kClosed, "vertical layers"},
+    {DYNAMAP_PARAM(EverFreeConfig, pixel_step), C, "px", 1, 64, kClosed, kClosed, "one ray every this many pixels in u and v"},
+    {DYNAMAP_PARAM(EverFreeConfig, max_range), X, "m", 0, 20, kOpen, kClosed, "rays are walked at most this far"},
+    {DYNAMAP_PARAM(EverFreeConfig, surface_margin), X, "m", 0, kInf, kClosed, kOpen, "free marking stops this far short of the surface"},
+    {DYNAMAP_PARAM(EverFreeConfig, margin_per_range2), X, "1/m", 0, kInf, kClosed, kOpen, "plus this times range^2"},
+    {DYNAMAP_PARAM(EverFreeConfig, burn_in_frames), X, "frames", 1, 255, kClosed, kClosed, "observed-free frames in a row to become ever free"},
+    {DYNAMAP_PARAM(EverFreeConfig, forget_frames), X, "frames", 1, 255, kClosed, kClosed, "hit frames in a row to stop being ever free"},
+    // clang-format on
+};
+static_assert(paths_unique(kEverFree));
+
+/// The parameters of DynamicRegionCleanerConfig, one row per field (PipelineConfig prefix
+/// "cleaner.").
+inline constexpr Param<DynamicRegionCleanerConfig> kDynamicRegionCleaner[] = {
+    // clang-format off
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, frames), X, "frames", 1, kMaxBoxHistory, kClosed, kClosed, "f: past boxes per dynamic track that are cleared"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, inflation), X, "", 1, kInf, kClosed, kOpen, "horizontal growth of a cleared box about its centre"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, z_margin), X, "m", 0, kInf, kClosed, kOpen, "added below and above a cleared box"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, older_boxes_per_frame), X, "", 0, kMaxBoxHistory, kClosed, kClosed, "older boxes revisited per track and frame"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, keep_static), X, "", 0, 1, kClosed, kClosed, "never clear voxels occupied since before a dynamic track started (static structure)"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, static_margin_frames), X, "frames", 0, 100000, kClosed, kClosed, "occupied this many frames before the track started counts as static"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, max_voxels_per_frame), C, "", 1, kMaxCleanerVoxelsPerFrame, kClosed, kClosed, "work cap: voxels examined per frame"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, max_purge_per_frame), C, "", 1, kCleanHistoryCapacity, kClosed, kClosed, "work cap: expired history entries purged per frame"},
+    // clang-format on
+};
+static_assert(paths_unique(kDynamicRegionCleaner));
+
+}  // namespace dynamap::params
