@@ -1,21 +1,32 @@
 // The parameter table (parameters.hpp): every field has a range that validate() enforces by
-// name, every value in range is accepted by every stage (no anonymous "pipeline" refusals), and
-// the table's accessors reach the field they name.
+// name, every value in range is accepted by every stage (no anonymous "pipeline" refusals), the
+// table's accessors reach the field they name, each stage's own validation refuses what its
+// table's ranges refuse, and the README's parameter table names real fields with their defaults.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <memory>
+#include <regex>
 #include <string>
+#include <vector>
 
+#include "dynamap/detect/detect_params.hpp"
+#include "dynamap/map/map_params.hpp"
 #include "dynamap/pipeline/parameters.hpp"
 #include "dynamap/pipeline/pipeline.hpp"
+#include "dynamap/predict/predict_params.hpp"
+#include "dynamap/track/track_params.hpp"
 
 namespace dynamap {
 namespace {
 
 // A value just outside the range at the lower (below = true) or upper end, if one exists.
-bool outside(const Parameter& p, bool below, double* v) {
+template <class Config>
+bool outside(const Param<Config>& p, bool below, double* v) {
   const double bound = below ? p.min : p.max;
   if (!std::isfinite(bound) || p.kind == ParamKind::kBool) return false;
   const bool open = below ? p.min_open : p.max_open;
@@ -54,7 +65,8 @@ bool at_bound(const Parameter& p, bool below, double* v) {
   return true;
 }
 
-void set_all(const Parameter& p, PipelineConfig& c, double v) {
+template <class Config>
+void set_all(const Param<Config>& p, Config& c, double v) {
   for (int i = 0; i < p.components(); ++i) p.set(c, i, v);
 }
 
@@ -163,6 +175,221 @@ TEST(Parameters, RelationsNameTheField) {
   char line[256];
   EXPECT_STREQ(describe(validate(c), line, sizeof line),
                "tracker.continuity.static_votes: must be < tracker.continuity.dynamic_votes");
+}
+
+// Each stage's own validation refuses every value its table's range refuses: the stage checks
+// read the same rows (there is no second copy of a range to drift).
+template <class Config, std::size_t N, class Accepts>
+int expect_stage_refuses(const Param<Config> (&table)[N], Accepts accepts, const char* stage) {
+  int refused = 0;
+  for (const Param<Config>& p : table) {
+    for (bool below : {true, false}) {
+      double v = 0;
+      if (!outside(p, below, &v)) continue;
+      Config c{};
+      set_all(p, c, v);
+      EXPECT_FALSE(accepts(c)) << stage << "." << p.path << " = " << v;
+      ++refused;
+    }
+    EXPECT_TRUE(accepts(Config{})) << stage;
+  }
+  return refused;
+}
+
+TEST(Parameters, StageValidationComesFromTheStageTables) {
+  int n = 0;
+  auto map = std::make_unique<OccupancyMap>();
+  n += expect_stage_refuses(
+      params::kOccupancyMap, [&](const OccupancyMapConfig& c) { return ok(map->init(c)); }, "map");
+  auto detector = std::make_unique<UMapDetector>();
+  n += expect_stage_refuses(
+      params::kUMapDetector, [&](const UMapDetectorConfig& c) { return ok(detector->init(c)); },
+      "detector");
+  auto refiner = std::make_unique<MapRefiner>();
+  n += expect_stage_refuses(
+      params::kMapRefiner, [&](const MapRefinerConfig& c) { return ok(refiner->init(c, 0.f)); },
+      "refiner");
+  const auto valid = [](const auto& c) { return ok(c.validate()); };
+  n += expect_stage_refuses(params::kKalman, valid, "kalman");
+  n += expect_stage_refuses(params::kImm, valid, "imm");
+  n += expect_stage_refuses(params::kContinuity, valid, "continuity");
+  n += expect_stage_refuses(params::kTracker, valid, "tracker");
+  n += expect_stage_refuses(
+      params::kLabel, [](const LabelConfig& c) { return ok(c.validate(kMaxVoteWindow)); }, "label");
+  n += expect_stage_refuses(params::kDetectionRefiner, valid, "fragments");
+  n += expect_stage_refuses(params::kEverFree, valid, "ever_free");
+  n += expect_stage_refuses(params::kDynamicRegionCleaner, valid, "cleaner");
+  const auto free_validate = [](const auto& c) { return ok(validate(c)); };
+  n += expect_stage_refuses(params::kClearance, free_validate, "clearance");
+  n += expect_stage_refuses(params::kFarField, free_validate, "far_field");
+  n += expect_stage_refuses(
+      params::kPathLibrary, [](const PathLibraryConfig& c) { return ok(PathLibrary{}.init(c)); },
+      "paths");
+  auto predictor = std::make_unique<MarkovPredictor>();
+  n += expect_stage_refuses(
+      params::kMarkovPredictor,
+      [&](const MarkovPredictorConfig& c) { return ok(predictor->init(c)); }, "predictor");
+  EXPECT_GT(n, 150);
+}
+
+// --- The README's "The parameters you set" table against the code ---------------------------
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+std::string trim(const std::string& s) {
+  const std::size_t a = s.find_first_not_of(" \t");
+  const std::size_t b = s.find_last_not_of(" \t");
+  return a == std::string::npos ? "" : s.substr(a, b - a + 1);
+}
+
+// Splits "0, [1, 1, 2.2] m" at the commas outside brackets.
+std::vector<std::string> split_top_level(const std::string& s) {
+  std::vector<std::string> parts(1);
+  int depth = 0;
+  for (char ch : s) {
+    depth += ch == '[' ? 1 : ch == ']' ? -1 : 0;
+    if (ch == ',' && depth == 0) {
+      parts.emplace_back();
+    } else {
+      parts.back() += ch;
+    }
+  }
+  for (std::string& p : parts) p = trim(p);
+  return parts;
+}
+
+// A README default: "0.4 m/s", "[5, 5, 3] m", "0 (none)", "true". Values as the field's float.
+struct ShownDefault {
+  std::vector<double> values;
+  std::string unit;  ///< "" when none is shown
+  bool parsed = false;
+};
+
+ShownDefault parse_default(std::string text) {
+  ShownDefault d;
+  if (const std::size_t paren = text.find(" ("); paren != std::string::npos) {
+    text = text.substr(0, paren);  // "0 (none)": the words in brackets are a gloss
+  }
+  text = trim(text);
+  std::string rest;
+  if (text.rfind("true", 0) == 0 || text.rfind("false", 0) == 0) {
+    d.values.push_back(text[0] == 't' ? 1.0 : 0.0);
+    rest = text.substr(text[0] == 't' ? 4 : 5);
+  } else if (!text.empty() && text[0] == '[') {
+    const std::size_t close = text.find(']');
+    if (close == std::string::npos) return d;
+    for (const std::string& item : split_top_level(text.substr(1, close - 1))) {
+      char* end = nullptr;
+      d.values.push_back(std::strtod(item.c_str(), &end));
+      if (end == item.c_str() || *end != '\0') return d;
+    }
+    rest = text.substr(close + 1);
+  } else {
+    char* end = nullptr;
+    d.values.push_back(std::strtod(text.c_str(), &end));
+    if (end == text.c_str()) return d;
+    rest = end;
+  }
+  d.unit = trim(rest);
+  d.parsed = true;
+  return d;
+}
+
+// The shown default names the code's default: as many values as components (one value stands
+// for all three of a vector), each equal to the field's value once stored as a float.
+bool same_default(const Parameter& p, const ShownDefault& shown, const PipelineConfig& code) {
+  if (shown.values.size() != 1 && static_cast<int>(shown.values.size()) != p.components()) {
+    return false;
+  }
+  for (int i = 0; i < p.components(); ++i) {
+    const double v = shown.values[shown.values.size() == 1 ? 0 : static_cast<std::size_t>(i)];
+    if (static_cast<float>(v) != static_cast<float>(p.get(code, i))) return false;
+  }
+  return true;
+}
+
+// The section "### The parameters you set" of README.md, up to the next heading.
+std::string readme_parameter_section() {
+  const std::string readme = read_text(std::string(DYNAMAP_SOURCE_DIR) + "/README.md");
+  const std::size_t at = readme.find("### The parameters you set");
+  if (at == std::string::npos) return "";
+  const std::size_t end = readme.find("\n#", at + 4);
+  return readme.substr(at, end == std::string::npos ? std::string::npos : end - at);
+}
+
+TEST(Parameters, ReadmeTableNamesRealFieldsWithTheirDefaults) {
+  const std::string section = readme_parameter_section();
+  ASSERT_FALSE(section.empty()) << "README.md lacks \"### The parameters you set\"";
+  std::smatch count;
+  ASSERT_TRUE(std::regex_search(section, count, std::regex("Of the ([0-9]+) fields")));
+  EXPECT_EQ(std::stoul(count[1].str()), parameters().size())
+      << "README.md: \"Of the N fields of PipelineConfig\" is stale";
+  const PipelineConfig code;
+  const std::regex name_re("`([^`]+)`");
+  int rows = 0;
+  std::size_t from = 0;
+  for (std::size_t eol; (eol = section.find('\n', from)) != std::string::npos; from = eol + 1) {
+    const std::string line = section.substr(from, eol - from);
+    if (line.rfind("| `", 0) != 0) continue;  // only parameter rows (not the header or rule)
+    std::vector<std::string> cells;
+    for (std::size_t a = 1, b; (b = line.find('|', a)) != std::string::npos; a = b + 1) {
+      cells.push_back(trim(line.substr(a, b - a)));
+    }
+    ASSERT_GE(cells.size(), 2u) << line;
+    std::vector<std::string> names;
+    for (std::sregex_iterator it(cells[0].begin(), cells[0].end(), name_re), end; it != end; ++it) {
+      names.push_back((*it)[1].str());
+    }
+    const std::vector<std::string> shown = split_top_level(cells[1]);
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      const std::string& name = names[i];
+      if (name.size() > 2 && name.compare(name.size() - 2, 2, ".*") == 0) {
+        // A group (camera.*, budgets.*): its fields exist; the default column is prose.
+        const std::string prefix = name.substr(0, name.size() - 1);
+        bool any = false;
+        for (const Parameter& p : parameters())
+          any = any || std::string(p.path).rfind(prefix, 0) == 0;
+        EXPECT_TRUE(any) << "README.md names group " << name << " but no field starts with it";
+        continue;
+      }
+      const Parameter* p = find_parameter(name.c_str());
+      if (p == nullptr) {
+        ADD_FAILURE() << "README.md names " << name << ", which is not a PipelineConfig field";
+        continue;
+      }
+      ++rows;
+      // One default per name, or one default shared by all names of the row.
+      const std::string text = shown.size() == names.size() ? shown[i] : cells[1];
+      const ShownDefault d = parse_default(text);
+      ASSERT_TRUE(d.parsed) << name << ": cannot read the README default '" << text << "'";
+      EXPECT_TRUE(same_default(*p, d, code))
+          << "README.md shows " << name << " = '" << text << "', the code's default differs";
+      if (!d.unit.empty()) {
+        EXPECT_EQ(d.unit, p->unit) << name << ": unit in README.md";
+      }
+    }
+  }
+  EXPECT_GT(rows, 5) << "no parameter rows read from README.md";
+}
+
+// The README check itself: a wrong default, unit or name is caught.
+TEST(Parameters, ReadmeDefaultParsing) {
+  const Parameter& max_size = *find_parameter("tracker.continuity.max_size");
+  const PipelineConfig code;
+  EXPECT_TRUE(same_default(max_size, parse_default("[1, 1, 2.2] m"), code));
+  EXPECT_FALSE(same_default(max_size, parse_default("[2, 2, 2.2] m"), code));
+  EXPECT_EQ(parse_default("[1, 1, 2.2] m").unit, "m");
+  EXPECT_EQ(split_top_level("0, [1, 1, 2.2] m").size(), 2u);
+  const Parameter& min_size = *find_parameter("tracker.continuity.min_size");
+  EXPECT_TRUE(same_default(min_size, parse_default("0"), code));
+  const Parameter& speed = *find_parameter("tracker.continuity.min_speed");
+  EXPECT_TRUE(same_default(speed, parse_default("0.4 m/s"), code));
+  EXPECT_FALSE(same_default(speed, parse_default("0.5 m/s"), code));
+  EXPECT_FALSE(parse_default("about five").parsed);
+  EXPECT_TRUE(same_default(*find_parameter("budgets.frame_ns"), parse_default("0 (none)"), code));
 }
 
 }  // namespace
