@@ -235,15 +235,23 @@ std::string parameters_markdown() {
   std::ostringstream os;
   os << "# Parameters\n"
      << "\n"
-     << "Every field of `PipelineConfig`, generated from the library's parameter table\n"
-     << "(`include/dynamap/pipeline/parameters.hpp`, `src/pipeline/parameters.cpp`) by "
-        "`dynamap-replay "
-        "--params-markdown`;\n"
-     << "`test_replay` fails when this page and the table differ. Regenerate it with\n"
+     << "Every field of `PipelineConfig`: its YAML key, default, valid range and meaning,\n"
+     << "generated from the library's parameter table by `dynamap-replay --params-markdown`;\n"
+     << "`test_replay` fails when this page and the table differ. Regenerate it after changing\n"
+     << "a parameter:\n"
      << "\n"
-     << "    build/release/tools/dynamap-replay --params-markdown > /tmp/t && \\\n"
-     << "      sed -n '1,/^\n";
-  const PipelineConfig defaults = replay_defaults();
+     << "    build/tools/dynamap-replay --params-markdown > docs/parameters.md\n"
+     << "\n"
+     << "(with a CMake preset the binary is under build/<preset>/tools/). Each parameter is\n"
+     << "declared once, next to its stage: the default is the member initialiser of the stage's\n"
+     << "config struct, its row (path, unit, range, tier, help) is in the stage's table\n"
+     << "(`include/dynamap/map/map_params.hpp`, `detect/detect_params.hpp`,\n"
+     << "`track/track_params.hpp`, `predict/predict_params.hpp`; the pipeline's own fields in\n"
+     << "`src/pipeline/parameters.cpp`). docs/pipeline.md, \"Adding a parameter\", says how\n"
+     << "to add one. Defaults are the library's; where the replay tools start from another\n"
+     << "value, the row says so (\"replay tools: ...\").\n";
+  const PipelineConfig library;
+  const PipelineConfig replay = replay_defaults();
   for (ParamTier tier : {ParamTier::kUser, ParamTier::kCapacity, ParamTier::kExpert}) {
     os << "\n## "
        << (tier == ParamTier::kUser       ? "User"
@@ -253,8 +261,12 @@ std::string parameters_markdown() {
     for (const Parameter& p : parameters()) {
       if (p.tier != tier) continue;
       char range[128];
-      os << "| `" << p.path << "` | " << value_text(p, defaults) << " | "
-         << p.range_text(range, sizeof range) << " | " << p.help << " |\n";
+      std::string shown = value_text(p, library);
+      if (const std::string r = value_text(p, replay); r != shown) {
+        shown += " (replay tools: " + r + ")";
+      }
+      os << "| `" << p.path << "` | " << shown << " | " << p.range_text(range, sizeof range)
+         << " | " << p.help << " |\n";
     }
   }
   return os.str();

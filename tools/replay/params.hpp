@@ -22,8 +22,9 @@ std::string apply_params_file(const std::string& path, PipelineConfig& config);
 /// unless `all_tiers` (for --help-params).
 std::vector<std::string> describe_params(const PipelineConfig& config, bool all_tiers);
 
-/// docs/parameters.md: the parameter table as Markdown, one table per tier, with the replay's
-/// defaults (`dynamap-replay --params-markdown`; test_replay keeps the page current).
+/// docs/parameters.md: the parameter table as Markdown, one table per tier, with the library's
+/// defaults and the replay tools' own where they differ (`dynamap-replay --params-markdown`;
+/// test_replay keeps the page current).
 std::string parameters_markdown();
 
 /// The library's intrinsics for a sequence's camera.txt model.
