@@ -1,6 +1,8 @@
 // Replay parameters: a YAML file whose keys name PipelineConfig fields ("map.resolution",
 // nested maps or dotted keys). Every key is checked: an unknown key or a bad value is an error
 // naming the file, the line and the key; then the whole configuration is validated.
+// Compiled once (the dynamap_replay_params library): the replay, the diagnosis tools and
+// fuzz_params link it.
 #pragma once
 
 #include <memory>
@@ -33,12 +35,12 @@ CameraIntrinsics intrinsics_of(const CameraModel& camera);
 /// The library's (float) pose for a sequence pose.
 Pose to_pose(const PoseD& pose);
 
-/// Default configuration with the sequence's camera, then the parameter file on top when
-/// `params_file` is not empty; a bad file throws ToolError with apply_params_file's message.
 /// The library's defaults as the replay tools use them: the linear baseline on (the evaluation
 /// compares against it).
 PipelineConfig replay_defaults();
 
+/// Default configuration with the sequence's camera, then the parameter file on top when
+/// `params_file` is not empty; a bad file throws ToolError with apply_params_file's message.
 PipelineConfig config_for_sequence(const Sequence& seq, const std::string& params_file);
 
 /// A pipeline initialised with `config`, on the heap (it holds its whole ~9.5 MiB budget
