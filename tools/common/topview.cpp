@@ -166,101 +166,103 @@ void draw_cells(cairo_t* cr, const Frame& f, const std::vector<Eigen::Vector3d>&
   cairo_restore(cr);
 }
 
-}  // namespace
-
-void render_top_view(const TopViewScene& s, const std::string& png_path, int plot_px) {
-  // --- bounds --------------------------------------------------------------------------------
+/// The plot's world rectangle: the scene's fixed bounds, or everything drawn plus a 0.8 m
+/// margin (10 m square around the origin when nothing is drawn).
+void scene_bounds(const TopViewScene& s, Eigen::Vector2d* lo_out, Eigen::Vector2d* hi_out) {
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector2d hi = -lo;
   if (s.fixed_bounds) {
-    lo = s.bounds_min;
-    hi = s.bounds_max;
-  } else {
-    for (const auto* cells : {&s.occupied_cells, &s.missing_static_cells, &s.held_dynamic_cells}) {
-      for (const auto& c : *cells) grow(&lo, &hi, c.head<2>());
-    }
-    for (const auto& b : s.static_world.boxes) {
-      grow(&lo, &hi, b.min.head<2>());
-      grow(&lo, &hi, b.max.head<2>());
-    }
-    for (const auto& c : s.static_world.cylinders) {
-      grow(&lo, &hi, c.center - Eigen::Vector2d::Constant(c.radius));
-      grow(&lo, &hi, c.center + Eigen::Vector2d::Constant(c.radius));
-    }
-    for (const auto* set_of : {&s.obstacles, &s.ground_truth_boxes}) {
-      for (const auto& o : *set_of) {
-        grow(&lo, &hi, o.center - 0.5 * o.size);
-        grow(&lo, &hi, o.center + 0.5 * o.size);
-      }
-    }
-    for (const auto* paths :
-         {&s.tracked_paths, &s.ground_truth_paths, &s.predicted_paths, &s.linear_paths}) {
-      for (const auto& p : *paths) {
-        for (const auto& q : p.points) grow(&lo, &hi, q);
-      }
-    }
-    for (const auto& q : s.camera_trajectory) grow(&lo, &hi, q);
-    if (s.show_camera) grow(&lo, &hi, s.camera_position);
-    if (!std::isfinite(lo.x())) {
-      lo = Eigen::Vector2d(-5, -5);
-      hi = Eigen::Vector2d(5, 5);
-    }
-    lo -= Eigen::Vector2d::Constant(0.8);
-    hi += Eigen::Vector2d::Constant(0.8);
+    *lo_out = s.bounds_min;
+    *hi_out = s.bounds_max;
+    return;
   }
+  for (const auto* cells : {&s.occupied_cells, &s.missing_static_cells, &s.held_dynamic_cells}) {
+    for (const auto& c : *cells) grow(&lo, &hi, c.head<2>());
+  }
+  for (const auto& b : s.static_world.boxes) {
+    grow(&lo, &hi, b.min.head<2>());
+    grow(&lo, &hi, b.max.head<2>());
+  }
+  for (const auto& c : s.static_world.cylinders) {
+    grow(&lo, &hi, c.center - Eigen::Vector2d::Constant(c.radius));
+    grow(&lo, &hi, c.center + Eigen::Vector2d::Constant(c.radius));
+  }
+  for (const auto* set_of : {&s.obstacles, &s.ground_truth_boxes}) {
+    for (const auto& o : *set_of) {
+      grow(&lo, &hi, o.center - 0.5 * o.size);
+      grow(&lo, &hi, o.center + 0.5 * o.size);
+    }
+  }
+  for (const auto* paths :
+       {&s.tracked_paths, &s.ground_truth_paths, &s.predicted_paths, &s.linear_paths}) {
+    for (const auto& p : *paths) {
+      for (const auto& q : p.points) grow(&lo, &hi, q);
+    }
+  }
+  for (const auto& q : s.camera_trajectory) grow(&lo, &hi, q);
+  if (s.show_camera) grow(&lo, &hi, s.camera_position);
+  if (!std::isfinite(lo.x())) {
+    lo = Eigen::Vector2d(-5, -5);
+    hi = Eigen::Vector2d(5, 5);
+  }
+  *lo_out = lo - Eigen::Vector2d::Constant(0.8);
+  *hi_out = hi + Eigen::Vector2d::Constant(0.8);
+}
+
+/// Where everything goes on the picture: plot frame and size, grid step, picture size.
+struct Layout {
+  Frame f;
+  Eigen::Vector2d lo, hi;
+  int plot_w = 0, plot_h = 0;
+  int width = 0, height = 0;
+  double step = 1.0;  // grid spacing, m
+};
+
+Layout make_layout(const TopViewScene& s, int plot_px) {
+  Layout l;
+  scene_bounds(s, &l.lo, &l.hi);
   // Finite spans only (coordinates near the double range would make it inf, the scale 0).
   constexpr double kMaxCoordinate = 1e300;
-  lo = lo.cwiseMax(Eigen::Vector2d::Constant(-kMaxCoordinate));
-  hi = hi.cwiseMin(Eigen::Vector2d::Constant(kMaxCoordinate));
-  const Eigen::Vector2d span = (hi - lo).cwiseMax(Eigen::Vector2d::Constant(1.0));
-  hi = lo + span;
+  l.lo = l.lo.cwiseMax(Eigen::Vector2d::Constant(-kMaxCoordinate));
+  l.hi = l.hi.cwiseMin(Eigen::Vector2d::Constant(kMaxCoordinate));
+  const Eigen::Vector2d span = (l.hi - l.lo).cwiseMax(Eigen::Vector2d::Constant(1.0));
+  l.hi = l.lo + span;
 
-  Frame f;
-  f.min = lo;
-  f.max = hi;
-  f.scale = plot_px / std::max(span.x(), span.y());
-  const int plot_w = static_cast<int>(std::ceil(span.x() * f.scale));
-  const int plot_h = static_cast<int>(std::ceil(span.y() * f.scale));
+  l.f.min = l.lo;
+  l.f.max = l.hi;
+  l.f.scale = plot_px / std::max(span.x(), span.y());
+  l.plot_w = static_cast<int>(std::ceil(span.x() * l.f.scale));
+  l.plot_h = static_cast<int>(std::ceil(span.y() * l.f.scale));
   const int margin_left = 70, margin_top = s.subtitle.empty() ? 56 : 78, margin_bottom = 60;
   const int legend_w = 270;
-  f.left = margin_left;
-  f.top = margin_top;
-  const int width = margin_left + plot_w + 20 + legend_w;
-  const int height = std::max(margin_top + plot_h + margin_bottom, margin_top + 420);
+  l.f.left = margin_left;
+  l.f.top = margin_top;
+  l.width = margin_left + l.plot_w + 20 + legend_w;
+  l.height = std::max(margin_top + l.plot_h + margin_bottom, margin_top + 420);
+  l.step = nice_step(std::max(span.x(), span.y()));
+  return l;
+}
 
-  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
-      cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width, height), cairo_surface_destroy);
-  std::unique_ptr<cairo_t, decltype(&cairo_destroy)> context(cairo_create(surface.get()),
-                                                             cairo_destroy);
-  cairo_t* cr = context.get();
-  cairo_set_source_rgb(cr, 1, 1, 1);
-  cairo_paint(cr);
-
-  // --- title ---------------------------------------------------------------------------------
-  set(cr, kText);
-  text(cr, margin_left, 32, s.title, 20, true);
-  if (!s.subtitle.empty()) text(cr, margin_left, 56, s.subtitle, 14);
-
-  // --- plot area, grid and axes ---------------------------------------------------------------
-  cairo_save(cr);
-  cairo_rectangle(cr, f.left, f.top, plot_w, plot_h);
-  cairo_clip(cr);
+// Plot background and grid lines (inside the plot's clip).
+void draw_grid(cairo_t* cr, const Layout& l) {
+  const Frame& f = l.f;
   cairo_set_source_rgb(cr, 0.985, 0.985, 0.985);
   cairo_paint(cr);
-  const double step = nice_step(std::max(span.x(), span.y()));
   set(cr, kGrid);
   cairo_set_line_width(cr, 1.0);
-  for_each_grid_line(lo.x(), hi.x(), step, 0.0, [&](double x) {
+  for_each_grid_line(l.lo.x(), l.hi.x(), l.step, 0.0, [&](double x) {
     cairo_move_to(cr, f.px(x), f.top);
-    cairo_line_to(cr, f.px(x), f.top + plot_h);
+    cairo_line_to(cr, f.px(x), f.top + l.plot_h);
   });
-  for_each_grid_line(lo.y(), hi.y(), step, 0.0, [&](double y) {
+  for_each_grid_line(l.lo.y(), l.hi.y(), l.step, 0.0, [&](double y) {
     cairo_move_to(cr, f.left, f.py(y));
-    cairo_line_to(cr, f.left + plot_w, f.py(y));
+    cairo_line_to(cr, f.left + l.plot_w, f.py(y));
   });
   cairo_stroke(cr);
+}
 
-  // --- static world (truth), then map cells ---------------------------------------------------
+// The true static world (floor slabs left out), then the map's cells on top.
+void draw_static_world_and_cells(cairo_t* cr, const TopViewScene& s, const Frame& f) {
   cairo_set_line_width(cr, 1.2);
   for (const auto& b : s.static_world.boxes) {
     if (b.max.z() <= s.static_world.floor_z + 0.05) continue;  // floor slabs
@@ -287,8 +289,10 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
   cairo_fill(cr);
   draw_cells(cr, f, s.missing_static_cells, cell_px, kMissingStatic);
   draw_cells(cr, f, s.held_dynamic_cells, cell_px, kHeldDynamic);
+}
 
-  // --- camera: trajectory and field of view ---------------------------------------------------
+// Camera: field of view at the last frame, trajectory (dot: start), position and heading.
+void draw_camera(cairo_t* cr, const TopViewScene& s, const Frame& f) {
   if (s.show_camera) {
     const Eigen::Vector2d c = s.camera_position;
     const double r = s.camera_range;
@@ -321,8 +325,10 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
     cairo_set_line_width(cr, 2.5);
     arrow(cr, x, y, x + 26 * std::cos(s.camera_yaw), y - 26 * std::sin(s.camera_yaw), 9);
   }
+}
 
-  // --- paths -----------------------------------------------------------------------------------
+// True paths (dashed, dot at the start), tracked paths, then predictions (dots at the samples).
+void draw_paths(cairo_t* cr, const TopViewScene& s, const Frame& f) {
   cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
   cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
   {
@@ -353,125 +359,160 @@ void render_top_view(const TopViewScene& s, const std::string& png_path, int plo
     cairo_arc(cr, f.px(p.points.front().x()), f.py(p.points.front().y()), 3.5, 0, 2 * M_PI);
     cairo_fill(cr);
   }
+}
 
-  // --- boxes with velocity arrows and labels --------------------------------------------------
-  auto draw_box = [&](const TopViewObstacle& o, const Rgb& c, bool dashed) {
-    const double x0 = f.px(o.center.x() - 0.5 * o.size.x());
-    const double y0 = f.py(o.center.y() + 0.5 * o.size.y());
-    cairo_rectangle(cr, x0, y0, o.size.x() * f.scale, o.size.y() * f.scale);
-    if (dashed) {
-      const double dash[] = {4.0, 3.0};
-      cairo_set_dash(cr, dash, 2, 0);
+// One obstacle box (filled, or dashed for the truth) with its velocity arrow and label.
+void draw_box(cairo_t* cr, const Frame& f, const TopViewObstacle& o, const Rgb& c, bool dashed) {
+  const double x0 = f.px(o.center.x() - 0.5 * o.size.x());
+  const double y0 = f.py(o.center.y() + 0.5 * o.size.y());
+  cairo_rectangle(cr, x0, y0, o.size.x() * f.scale, o.size.y() * f.scale);
+  if (dashed) {
+    const double dash[] = {4.0, 3.0};
+    cairo_set_dash(cr, dash, 2, 0);
+  } else {
+    set(cr, c, 0.22);
+    cairo_fill_preserve(cr);
+  }
+  set(cr, c);
+  cairo_set_line_width(cr, 2.0);
+  cairo_stroke(cr);
+  cairo_set_dash(cr, nullptr, 0, 0);
+  const double cx = f.px(o.center.x()), cy = f.py(o.center.y());
+  if (o.velocity.norm() > 0.05) {
+    cairo_set_line_width(cr, 2.5);
+    arrow(cr, cx, cy, f.px(o.center.x() + o.velocity.x()), f.py(o.center.y() + o.velocity.y()), 9);
+  }
+  if (!o.label.empty()) {
+    set(cr, kText);
+    // Right of the box, unless that would run past the plot's right edge: then left of it.
+    cairo_select_font_face(cr, "DejaVu Sans", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr, 12);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr, o.label.c_str(), &e);
+    const double right = x0 + o.size.x() * f.scale + 4;
+    if (right + e.x_advance > f.px(f.max.x())) {
+      text(cr, x0 - 4, y0 - 3, o.label, 12, false, 1.0);
     } else {
-      set(cr, c, 0.22);
-      cairo_fill_preserve(cr);
+      text(cr, right, y0 - 3, o.label, 12);
     }
-    set(cr, c);
-    cairo_set_line_width(cr, 2.0);
-    cairo_stroke(cr);
-    cairo_set_dash(cr, nullptr, 0, 0);
-    const double cx = f.px(o.center.x()), cy = f.py(o.center.y());
-    if (o.velocity.norm() > 0.05) {
-      cairo_set_line_width(cr, 2.5);
-      arrow(cr, cx, cy, f.px(o.center.x() + o.velocity.x()), f.py(o.center.y() + o.velocity.y()),
-            9);
-    }
-    if (!o.label.empty()) {
-      set(cr, kText);
-      // Right of the box, unless that would run past the plot's right edge: then left of it.
-      cairo_select_font_face(cr, "DejaVu Sans", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-      cairo_set_font_size(cr, 12);
-      cairo_text_extents_t e;
-      cairo_text_extents(cr, o.label.c_str(), &e);
-      const double right = x0 + o.size.x() * f.scale + 4;
-      if (right + e.x_advance > f.px(f.max.x())) {
-        text(cr, x0 - 4, y0 - 3, o.label, 12, false, 1.0);
-      } else {
-        text(cr, right, y0 - 3, o.label, 12);
-      }
-    }
-  };
-  for (const auto& o : s.ground_truth_boxes) draw_box(o, kGroundTruth, true);
-  for (const auto& o : s.obstacles) draw_box(o, o.dynamic ? kDynamic : kStaticTrack, false);
-  cairo_restore(cr);
+  }
+}
 
-  // --- frame, tick labels, axis names ----------------------------------------------------------
+// Plot frame, tick labels and axis names.
+void draw_axes(cairo_t* cr, const Layout& l) {
+  const Frame& f = l.f;
   cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
   cairo_set_line_width(cr, 1.0);
-  cairo_rectangle(cr, f.left + 0.5, f.top + 0.5, plot_w, plot_h);
+  cairo_rectangle(cr, f.left + 0.5, f.top + 0.5, l.plot_w, l.plot_h);
   cairo_stroke(cr);
   set(cr, kText);
   char buf[64];
-  for_each_grid_line(lo.x(), hi.x(), step, 1e-9, [&](double x) {
+  for_each_grid_line(l.lo.x(), l.hi.x(), l.step, 1e-9, [&](double x) {
     std::snprintf(buf, sizeof(buf), "%g", std::abs(x) < 1e-9 ? 0.0 : x);
-    text(cr, f.px(x), f.top + plot_h + 16, buf, 11, false, 0.5);
+    text(cr, f.px(x), f.top + l.plot_h + 16, buf, 11, false, 0.5);
   });
-  for_each_grid_line(lo.y(), hi.y(), step, 1e-9, [&](double y) {
+  for_each_grid_line(l.lo.y(), l.hi.y(), l.step, 1e-9, [&](double y) {
     std::snprintf(buf, sizeof(buf), "%g", std::abs(y) < 1e-9 ? 0.0 : y);
     text(cr, f.left - 6, f.py(y) + 4, buf, 11, false, 1.0);
   });
-  text(cr, f.left + 0.5 * plot_w, f.top + plot_h + 34, "x (m)", 13, false, 0.5);
+  text(cr, f.left + 0.5 * l.plot_w, f.top + l.plot_h + 34, "x (m)", 13, false, 0.5);
   cairo_save(cr);
-  cairo_translate(cr, 22, f.top + 0.5 * plot_h);
+  cairo_translate(cr, 22, f.top + 0.5 * l.plot_h);
   cairo_rotate(cr, -M_PI / 2);
   text(cr, 0, 0, "y (m)", 13, false, 0.5);
   cairo_restore(cr);
+}
 
-  // --- scale bar (below the plot, left) -------------------------------------------------------
-  {
-    const double bar_m = step;
-    const double x0 = f.left, y0 = f.top + plot_h + 50;
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_line_width(cr, 3.0);
-    cairo_move_to(cr, x0, y0);
-    cairo_line_to(cr, x0 + bar_m * f.scale, y0);
-    cairo_stroke(cr);
-    cairo_set_line_width(cr, 1.5);
-    for (double xx : {x0, x0 + bar_m * f.scale}) {
-      cairo_move_to(cr, xx, y0 - 5);
-      cairo_line_to(cr, xx, y0 + 5);
-    }
-    cairo_stroke(cr);
-    std::snprintf(buf, sizeof(buf), "%g m  (grid %g m, top view, z up)", bar_m, step);
-    text(cr, x0 + bar_m * f.scale + 10, y0 + 4, buf, 12);
+// Scale bar below the plot, left: one grid step long.
+void draw_scale_bar(cairo_t* cr, const Layout& l) {
+  const Frame& f = l.f;
+  const double bar_m = l.step;
+  const double x0 = f.left, y0 = f.top + l.plot_h + 50;
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo_set_line_width(cr, 3.0);
+  cairo_move_to(cr, x0, y0);
+  cairo_line_to(cr, x0 + bar_m * f.scale, y0);
+  cairo_stroke(cr);
+  cairo_set_line_width(cr, 1.5);
+  for (double xx : {x0, x0 + bar_m * f.scale}) {
+    cairo_move_to(cr, xx, y0 - 5);
+    cairo_line_to(cr, xx, y0 + 5);
   }
+  cairo_stroke(cr);
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%g m  (grid %g m, top view, z up)", bar_m, l.step);
+  text(cr, x0 + bar_m * f.scale + 10, y0 + 4, buf, 12);
+}
 
-  // --- legend (outside the plot so it never hides data) ---------------------------------------
-  {
-    const double x = f.left + plot_w + 24;
-    double y = f.top + 8;
-    set(cr, kText);
-    text(cr, x, y + 6, "Legend", 15, true);
-    y += 30;
-    auto entry = [&](bool present, const Rgb& c, Swatch k, const std::string& label) {
-      if (!present) return;
-      legend_entry(cr, x, y, c, k, label);
-      y += 24;
-    };
-    entry(!s.occupied_cells.empty(), kMapCell, Swatch::kFill, "occupied map cell");
-    entry(!s.missing_static_cells.empty(), kMissingStatic, Swatch::kFill,
-          "static voxel seen, not in map");
-    entry(!s.held_dynamic_cells.empty(), kHeldDynamic, Swatch::kFill, "walker voxel still in map");
-    entry(!s.static_world.boxes.empty() || !s.static_world.cylinders.empty(), kStaticEdge,
-          Swatch::kFill, "static world (true)");
-    entry(!s.camera_trajectory.empty(), kCamera, Swatch::kLine, "camera path (dot: start)");
-    entry(s.show_camera, kCamera, Swatch::kBox, "camera view (last frame)");
-    entry(!s.ground_truth_paths.empty(), kGroundTruth, Swatch::kDashed,
-          "true obstacle path (dot: start)");
-    entry(!s.ground_truth_boxes.empty(), kGroundTruth, Swatch::kDashed, "true obstacle box");
-    const bool any_dyn = std::any_of(s.obstacles.begin(), s.obstacles.end(),
-                                     [](const TopViewObstacle& o) { return o.dynamic; });
-    const bool any_static = std::any_of(s.obstacles.begin(), s.obstacles.end(),
-                                        [](const TopViewObstacle& o) { return !o.dynamic; });
-    entry(any_dyn, kDynamic, Swatch::kBox, "dynamic obstacle + velocity");
-    entry(any_static, kStaticTrack, Swatch::kBox, "obstacle labelled static");
-    entry(!s.tracked_paths.empty(), kTracked, Swatch::kLine, "tracked path (history)");
-    entry(!s.predicted_paths.empty(), kPredicted, Swatch::kDots, "predicted path (chosen)");
-    entry(!s.linear_paths.empty(), kLinear, Swatch::kDots, "linear prediction (baseline)");
-    set(cr, kText);
-    text(cr, x, y + 10, "Arrows: velocity, length = 1 s", 12);
-    text(cr, x, y + 26, "of travel.", 12);
-  }
+// Legend right of the plot (never hides data): one entry per kind of thing drawn.
+void draw_legend(cairo_t* cr, const TopViewScene& s, const Layout& l) {
+  const double x = l.f.left + l.plot_w + 24;
+  double y = l.f.top + 8;
+  set(cr, kText);
+  text(cr, x, y + 6, "Legend", 15, true);
+  y += 30;
+  auto entry = [&](bool present, const Rgb& c, Swatch k, const std::string& label) {
+    if (!present) return;
+    legend_entry(cr, x, y, c, k, label);
+    y += 24;
+  };
+  entry(!s.occupied_cells.empty(), kMapCell, Swatch::kFill, "occupied map cell");
+  entry(!s.missing_static_cells.empty(), kMissingStatic, Swatch::kFill,
+        "static voxel seen, not in map");
+  entry(!s.held_dynamic_cells.empty(), kHeldDynamic, Swatch::kFill, "walker voxel still in map");
+  entry(!s.static_world.boxes.empty() || !s.static_world.cylinders.empty(), kStaticEdge,
+        Swatch::kFill, "static world (true)");
+  entry(!s.camera_trajectory.empty(), kCamera, Swatch::kLine, "camera path (dot: start)");
+  entry(s.show_camera, kCamera, Swatch::kBox, "camera view (last frame)");
+  entry(!s.ground_truth_paths.empty(), kGroundTruth, Swatch::kDashed,
+        "true obstacle path (dot: start)");
+  entry(!s.ground_truth_boxes.empty(), kGroundTruth, Swatch::kDashed, "true obstacle box");
+  const bool any_dyn = std::any_of(s.obstacles.begin(), s.obstacles.end(),
+                                   [](const TopViewObstacle& o) { return o.dynamic; });
+  const bool any_static = std::any_of(s.obstacles.begin(), s.obstacles.end(),
+                                      [](const TopViewObstacle& o) { return !o.dynamic; });
+  entry(any_dyn, kDynamic, Swatch::kBox, "dynamic obstacle + velocity");
+  entry(any_static, kStaticTrack, Swatch::kBox, "obstacle labelled static");
+  entry(!s.tracked_paths.empty(), kTracked, Swatch::kLine, "tracked path (history)");
+  entry(!s.predicted_paths.empty(), kPredicted, Swatch::kDots, "predicted path (chosen)");
+  entry(!s.linear_paths.empty(), kLinear, Swatch::kDots, "linear prediction (baseline)");
+  set(cr, kText);
+  text(cr, x, y + 10, "Arrows: velocity, length = 1 s", 12);
+  text(cr, x, y + 26, "of travel.", 12);
+}
+
+}  // namespace
+
+void render_top_view(const TopViewScene& s, const std::string& png_path, int plot_px) {
+  const Layout l = make_layout(s, plot_px);
+  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
+      cairo_image_surface_create(CAIRO_FORMAT_ARGB32, l.width, l.height), cairo_surface_destroy);
+  std::unique_ptr<cairo_t, decltype(&cairo_destroy)> context(cairo_create(surface.get()),
+                                                             cairo_destroy);
+  cairo_t* cr = context.get();
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_paint(cr);
+
+  set(cr, kText);
+  text(cr, l.f.left, 32, s.title, 20, true);
+  if (!s.subtitle.empty()) text(cr, l.f.left, 56, s.subtitle, 14);
+
+  // Everything in world coordinates is clipped to the plot area.
+  cairo_save(cr);
+  cairo_rectangle(cr, l.f.left, l.f.top, l.plot_w, l.plot_h);
+  cairo_clip(cr);
+  draw_grid(cr, l);
+  draw_static_world_and_cells(cr, s, l.f);
+  draw_camera(cr, s, l.f);
+  draw_paths(cr, s, l.f);
+  for (const auto& o : s.ground_truth_boxes) draw_box(cr, l.f, o, kGroundTruth, true);
+  for (const auto& o : s.obstacles)
+    draw_box(cr, l.f, o, o.dynamic ? kDynamic : kStaticTrack, false);
+  cairo_restore(cr);
+
+  draw_axes(cr, l);
+  draw_scale_bar(cr, l);
+  draw_legend(cr, s, l);
 
   cairo_surface_flush(surface.get());
   if (cairo_surface_write_to_png(surface.get(), png_path.c_str()) != CAIRO_STATUS_SUCCESS) {
