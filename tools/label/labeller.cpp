@@ -366,6 +366,508 @@ std::vector<MapVoxel> static_voxels(const VoxelGrid& grid, const std::vector<std
   return out;
 }
 
+void say(const LabelOptions& opt, const std::string& s) {
+  if (opt.progress) opt.progress(s);
+}
+
+// The depth image of frame f, or false when it cannot be read (no throw).
+bool load(const Sequence& seq, std::size_t f, Image16* img) {
+  try {
+    *img = load_depth(seq, seq.frames[f]);
+    return true;
+  } catch (const ToolError&) {
+    return false;
+  }
+}
+
+// Reads the sequence, notes its warnings, drops the first first_frame frames and counts the
+// frames to label (max_frames) into sum.frames.
+Sequence open_sequence(const std::string& seq_dir, const LabelOptions& opt, LabelSummary& sum) {
+  Sequence seq = read_sequence(seq_dir);
+  sum.listed = seq.images_listed;
+  sum.without_pose = seq.images_without_pose;
+  // A world_z_up 0 sequence is read gravity-aligned and levelled on its floor (z = 0); when no
+  // floor was found its heights are only guesses.
+  if (seq.camera.world_z_up != 1 && !seq.floor_levelled) {
+    sum.warnings.push_back(join_path(seq_dir, "camera.txt") +
+                           ": no 'world_z_up 1' and no floor found: the floor is assumed at z = " +
+                           std::to_string(opt.floor_z) + " of the gravity-aligned world");
+  }
+  for (const std::string& w : seq.warnings) sum.warnings.push_back(w);
+  const auto first =
+      std::min(seq.frames.size(), static_cast<std::size_t>(std::max(0, opt.first_frame)));
+  seq.frames.erase(seq.frames.begin(), seq.frames.begin() + static_cast<std::ptrdiff_t>(first));
+  std::size_t nframes = seq.frames.size();
+  if (opt.max_frames > 0) nframes = std::min(nframes, static_cast<std::size_t>(opt.max_frames));
+  sum.frames = nframes;
+  return seq;
+}
+
+// Grid bounds: every camera position +- max range in x / y (capped), floor to 3.5 m above.
+VoxelGrid make_grid(const Sequence& seq, std::size_t nframes, const LabelOptions& opt) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e18), hi = Eigen::Vector3d::Constant(-1e18);
+  for (std::size_t f = 0; f < nframes; ++f) {
+    lo = lo.cwiseMin(seq.frames[f].pose.translation);
+    hi = hi.cwiseMax(seq.frames[f].pose.translation);
+  }
+  for (int a = 0; a < 2; ++a) {
+    const double mid = 0.5 * (lo[a] + hi[a]);
+    lo[a] = std::max(lo[a] - opt.max_range, mid - 0.5 * opt.max_extent);
+    hi[a] = std::min(hi[a] + opt.max_range, mid + 0.5 * opt.max_extent);
+  }
+  lo.z() = opt.floor_z - 0.3;
+  hi.z() = opt.floor_z + 3.5;
+  return VoxelGrid(lo, hi, opt.voxel);
+}
+
+// One frame's rays into the grid (every model_stride pixels): free space up to the point (or
+// max_range, or no_return_range through a solid no-return region), a hit at the point.
+void add_frame_to_model(VoxelGrid& grid, const Image16& depth, const CameraModel& cam,
+                        const PoseD& pose, std::uint16_t stamp, const LabelOptions& opt) {
+  const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
+  const Eigen::Vector3d o = pose.translation;
+  for (int v = opt.model_stride / 2; v < depth.height; v += opt.model_stride) {
+    for (int u = opt.model_stride / 2; u < depth.width; u += opt.model_stride) {
+      const std::uint16_t d = depth.at(u, v);
+      if (d == 0) {
+        if (opt.no_return_range > 0.0 && no_return_block(depth, u, v, opt.model_stride)) {
+          const Eigen::Vector3d ray =
+              R * Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+          grid.carve(o, ray.normalized(), opt.no_return_range, stamp);
+        }
+        continue;
+      }
+      const double z = d / cam.depth_factor;
+      const Eigen::Vector3d pc((u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z);
+      const Eigen::Vector3d p = R * pc + o;
+      const double range = (p - o).norm();
+      if (range < 0.2) continue;
+      const Eigen::Vector3d dir = (p - o) / range;
+      if (range > opt.max_range) {
+        grid.carve(o, dir, opt.max_range, stamp);
+      } else {
+        if (range > opt.end_margin) grid.carve(o, dir, range - opt.end_margin, stamp);
+        grid.hit(p, stamp);
+      }
+    }
+  }
+}
+
+// Pass 1: every readable frame into the grid; marks the frames read in `usable` and lists the
+// others in the summary.
+void build_model(const Sequence& seq, std::size_t nframes, const LabelOptions& opt, VoxelGrid& grid,
+                 std::vector<bool>& usable, LabelSummary& sum) {
+  for (std::size_t f = 0; f < nframes; ++f) {
+    const SequenceFrame& fr = seq.frames[f];
+    Image16 depth;
+    try {
+      depth = load_depth(seq, fr);
+    } catch (const ToolError& e) {
+      sum.skipped.push_back(e.what());
+      say(opt, std::string("skipping frame ") + fr.stamp_text + ": " + e.what());
+      continue;
+    }
+    usable[f] = true;
+    ++sum.frames_used;
+    const auto stamp = static_cast<std::uint16_t>((f % 0xFFFF) + 1);
+    add_frame_to_model(grid, depth, seq.camera, fr.pose, stamp, opt);
+    if ((f + 1) % 100 == 0 || f + 1 == nframes) {
+      say(opt, "model: " + std::to_string(f + 1) + "/" + std::to_string(nframes) + " frames");
+    }
+  }
+}
+
+// Voxel states: 0 unknown / between, 1 free (seen often, rarely occupied), 2 static (often
+// occupied).
+std::vector<std::uint8_t> classify_voxels(const VoxelGrid& grid, const LabelOptions& opt) {
+  std::vector<std::uint8_t> state(grid.size(), 0);
+  for (std::size_t id = 0; id < grid.size(); ++id) {
+    const double h = grid.hits(id), obs = h + grid.passes(id);
+    if (obs < opt.min_observations) continue;
+    if (h < opt.free_ratio * obs) {
+      state[id] = 1;
+    } else if (h >= opt.static_ratio * obs) {
+      state[id] = 2;
+    }
+  }
+  return state;
+}
+
+// The "dynamic-capable" voxels: free with no static neighbour (absorbs pose and depth noise at
+// walls and the floor).
+std::vector<std::uint8_t> dynamic_capable(const VoxelGrid& grid,
+                                          const std::vector<std::uint8_t>& state) {
+  const int* n = grid.dims();
+  std::vector<std::uint8_t> dynamic_ok(grid.size(), 0);
+  for (int k = 0; k < n[2]; ++k) {
+    for (int j = 0; j < n[1]; ++j) {
+      for (int i = 0; i < n[0]; ++i) {
+        const std::size_t id = grid.index(i, j, k);
+        if (state[id] != 1) continue;
+        bool ok = true;
+        for (int dk = -1; dk <= 1 && ok; ++dk) {
+          for (int dj = -1; dj <= 1 && ok; ++dj) {
+            for (int di = -1; di <= 1 && ok; ++di) {
+              const int a = i + di, b = j + dj, c = k + dk;
+              if (a < 0 || b < 0 || c < 0 || a >= n[0] || b >= n[1] || c >= n[2]) continue;
+              ok = state[grid.index(a, b, c)] != 2;
+            }
+          }
+        }
+        dynamic_ok[id] = ok ? 1 : 0;
+      }
+    }
+  }
+  return dynamic_ok;
+}
+
+// The pass 1 result: the grid with its voxel states, and the points a frame has in space the
+// model holds free.
+class StaticModel {
+ public:
+  StaticModel(VoxelGrid grid, const LabelOptions& opt, const CameraModel& cam)
+      : grid_(std::move(grid)),
+        state_(classify_voxels(grid_, opt)),
+        dynamic_ok_(dynamic_capable(grid_, state_)),
+        opt_(opt),
+        cam_(cam) {}
+
+  std::vector<MapVoxel> static_model_voxels() const { return static_voxels(grid_, state_); }
+
+  // Points of a frame in space the model holds free: the candidates of moving people. Only
+  // points whose 3x3 image neighbourhood (at detect_stride) is mostly free count: depth noise
+  // leaves scattered free points on walls seen at grazing angles, a person is a solid region.
+  std::vector<Eigen::Vector3d> free_points(const Image16& depth, const PoseD& pose) const {
+    const int gw = (depth.width + opt_.detect_stride - 1) / opt_.detect_stride;
+    const int gh = (depth.height + opt_.detect_stride - 1) / opt_.detect_stride;
+    std::vector<std::uint8_t> is_free(static_cast<std::size_t>(gw) * gh, 0);
+    std::vector<Eigen::Vector3d> world(is_free.size());
+    mark_free(depth, pose, gw, gh, is_free, world);
+    const Eigen::Vector3d o = pose.translation;
+    std::vector<Eigen::Vector3d> pts;
+    for (int gv = 0; gv < gh; ++gv) {
+      for (int gu = 0; gu < gw; ++gu) {
+        const std::size_t k = static_cast<std::size_t>(gv) * gw + gu;
+        if (!is_free[k]) continue;
+        const Eigen::Vector3d& p = world[k];
+        if (p.z() < opt_.floor_z + opt_.min_point_height || (p - o).norm() > opt_.detect_range) {
+          continue;
+        }
+        int count = 0;
+        for (int dv = -1; dv <= 1; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const int a = gu + du, b = gv + dv;
+            if (a >= 0 && b >= 0 && a < gw && b < gh) {
+              count += is_free[static_cast<std::size_t>(b) * gw + a];
+            }
+          }
+        }
+        if (count >= opt_.min_free_neighbours) pts.push_back(p);
+      }
+    }
+    return pts;
+  }
+
+ private:
+  // Depth noise grows with range: a far point can land well in front of the wall it belongs
+  // to. Such a point has a static voxel just behind it on its ray.
+  bool static_behind(const Eigen::Vector3d& o, const Eigen::Vector3d& p) const {
+    const double r = (p - o).norm();
+    const Eigen::Vector3d dir = (p - o) / r;
+    const double reach = opt_.behind_check + opt_.behind_check_quadratic * r * r;
+    for (double s = 0.5 * opt_.voxel; s <= reach; s += 0.5 * opt_.voxel) {
+      int c[3];
+      if (grid_.cell(p + s * dir, c) && state_[grid_.index(c[0], c[1], c[2])] == 2) return true;
+    }
+    return false;
+  }
+
+  // The sample grid (every detect_stride pixels) of the image: 1 where the point lies in a
+  // dynamic-capable voxel with no static voxel just behind it, with its world position.
+  void mark_free(const Image16& depth, const PoseD& pose, int gw, int gh,
+                 std::vector<std::uint8_t>& is_free, std::vector<Eigen::Vector3d>& world) const {
+    const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
+    const Eigen::Vector3d o = pose.translation;
+    for (int gv = 0; gv < gh; ++gv) {
+      for (int gu = 0; gu < gw; ++gu) {
+        const int u = gu * opt_.detect_stride, v = gv * opt_.detect_stride;
+        const std::uint16_t d = depth.at(u, v);
+        if (d == 0) continue;
+        const double z = d / cam_.depth_factor;
+        const Eigen::Vector3d pc((u - cam_.cx) * z / cam_.fx, (v - cam_.cy) * z / cam_.fy, z);
+        const Eigen::Vector3d p = R * pc + o;
+        int c[3];
+        if (!grid_.cell(p, c) || !dynamic_ok_[grid_.index(c[0], c[1], c[2])]) continue;
+        if (static_behind(o, p)) continue;
+        const std::size_t k = static_cast<std::size_t>(gv) * gw + gu;
+        is_free[k] = 1;
+        world[k] = p;
+      }
+    }
+  }
+
+  VoxelGrid grid_;
+  std::vector<std::uint8_t> state_;
+  std::vector<std::uint8_t> dynamic_ok_;
+  const LabelOptions& opt_;
+  const CameraModel& cam_;
+};
+
+// A cluster of free points as a person, or false when its size or height does not fit one.
+bool person_of(const std::vector<Eigen::Vector3d>& pts, const std::vector<int>& members,
+               const Image16& depth, const CameraModel& cam, const PoseD& pose, int frame,
+               const LabelOptions& opt, Detection* out) {
+  if (static_cast<int>(members.size()) < opt.min_points) return false;
+  std::vector<double> zs, xs, ys;
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (int m : members) {
+    zs.push_back(pts[m].z());
+    xs.push_back(pts[m].x());
+    ys.push_back(pts[m].y());
+    centroid += pts[m].head<2>();
+  }
+  centroid /= static_cast<double>(members.size());
+  const double top = percentile(zs, 0.98) - opt.floor_z;
+  const double bottom = percentile(zs, 0.02) - opt.floor_z;
+  const double fx = percentile(xs, 0.98) - percentile(xs, 0.02);
+  const double fy = percentile(ys, 0.98) - percentile(ys, 0.02);
+  if (top < opt.min_top || top - bottom < opt.min_vertical_extent) return false;
+  if (std::hypot(fx, fy) > opt.max_footprint) return false;
+  Detection det;
+  det.frame = frame;
+  det.centroid = centroid;
+  det.camera = pose.translation.head<2>();
+  det.top = top;
+  det.points = static_cast<int>(members.size());
+  const Eigen::Vector2d ray = (centroid - det.camera).normalized();
+  const Eigen::Vector2d across(-ray.y(), ray.x());
+  std::vector<double> w;
+  for (int m : members) w.push_back(across.dot(pts[m].head<2>() - centroid));
+  det.half_width = 0.5 * (percentile(w, 0.98) - percentile(w, 0.02));
+  const double r = std::clamp(det.half_width, opt.min_radius, opt.max_radius);
+  const Eigen::Vector2d c2 = centroid + ray * (r * M_PI / 4.0);
+  det.visible = estimate_visible(depth, cam, pose, Eigen::Vector3d(c2.x(), c2.y(), 0.5 * top),
+                                 Eigen::Vector3d(2 * r, 2 * r, top));
+  *out = det;
+  return true;
+}
+
+// Pass 2: per frame, person-like clusters of points in space the model holds free.
+std::vector<std::vector<Detection>> detect_people(const Sequence& seq, std::size_t nframes,
+                                                  const std::vector<bool>& usable,
+                                                  const StaticModel& model, const LabelOptions& opt,
+                                                  LabelSummary& sum) {
+  std::vector<std::vector<Detection>> dets(nframes);
+  for (std::size_t f = 0; f < nframes; ++f) {
+    if (!usable[f]) continue;
+    const SequenceFrame& fr = seq.frames[f];
+    Image16 depth;
+    if (!load(seq, f, &depth)) continue;  // read in pass 1 already: only a changing file fails
+    const std::vector<Eigen::Vector3d> pts = model.free_points(depth, fr.pose);
+    for (const auto& members : cluster_top_view(pts, opt.cell)) {
+      Detection det;
+      if (!person_of(pts, members, depth, seq.camera, fr.pose, static_cast<int>(f), opt, &det)) {
+        continue;
+      }
+      dets[f].push_back(det);
+      ++sum.detections;
+    }
+    if ((f + 1) % 100 == 0 || f + 1 == nframes) {
+      say(opt, "detect: " + std::to_string(f + 1) + "/" + std::to_string(nframes) + " frames, " +
+                   std::to_string(sum.detections) + " person-like clusters");
+    }
+  }
+  return dets;
+}
+
+// One frame of association: gated nearest neighbour with a constant-velocity guess, greedy by
+// distance; a detection left over starts a track.
+void associate_frame(int fi, const std::vector<Detection>& dets, const LabelOptions& opt,
+                     std::vector<Track>& tracks, std::vector<std::size_t>& active) {
+  active.erase(std::remove_if(active.begin(), active.end(),
+                              [&](std::size_t t) {
+                                return fi - tracks[t].dets.back().frame > opt.max_gap + 1;
+                              }),
+               active.end());
+  struct Pair {
+    double cost;
+    std::size_t track, det;
+  };
+  std::vector<Pair> pairs;
+  for (std::size_t t : active) {
+    const Detection& last = tracks[t].dets.back();
+    const int gap = fi - last.frame;
+    const Eigen::Vector2d guess = last.centroid + tracks[t].velocity_per_frame() * gap;
+    const double gate = opt.gate + 0.1 * (gap - 1);
+    for (std::size_t d = 0; d < dets.size(); ++d) {
+      const double c = (dets[d].centroid - guess).norm();
+      if (c <= gate) pairs.push_back({c, t, d});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(),
+            [](const Pair& a, const Pair& b) { return a.cost < b.cost; });
+  std::vector<bool> det_used(dets.size(), false);
+  std::vector<std::size_t> fed;
+  for (const Pair& p : pairs) {
+    if (det_used[p.det] || std::find(fed.begin(), fed.end(), p.track) != fed.end()) continue;
+    det_used[p.det] = true;
+    fed.push_back(p.track);
+    tracks[p.track].dets.push_back(dets[p.det]);
+  }
+  for (std::size_t d = 0; d < dets.size(); ++d) {
+    if (det_used[d]) continue;
+    tracks.push_back(Track{{dets[d]}});
+    active.push_back(tracks.size() - 1);
+  }
+}
+
+// Pass 3, association over all frames.
+std::vector<Track> associate(const std::vector<std::vector<Detection>>& dets,
+                             const LabelOptions& opt) {
+  std::vector<Track> tracks;
+  std::vector<std::size_t> active;
+  for (std::size_t f = 0; f < dets.size(); ++f) {
+    associate_frame(static_cast<int>(f), dets[f], opt, tracks, active);
+  }
+  return tracks;
+}
+
+// A track on every frame from its first to its last detection: observed centres corrected to
+// the body axis, gaps filled linearly in time.
+struct TrackPath {
+  int f0 = 0, len = 0;
+  double radius = 0.0, height = 0.0;
+  std::vector<Eigen::Vector2d> pos;
+  std::vector<double> vis, t;  // visible fraction (observed frames), seconds since f0
+  std::vector<bool> seen;
+};
+
+TrackPath track_path(const Track& tr, const Sequence& seq, const LabelOptions& opt) {
+  TrackPath p;
+  std::vector<double> widths, tops;
+  for (const auto& d : tr.dets) {
+    widths.push_back(d.half_width);
+    tops.push_back(d.top);
+  }
+  p.radius = std::clamp(median(widths), opt.min_radius, opt.max_radius);
+  p.height = median(tops);
+  const double r = p.radius;
+  const int f0 = tr.dets.front().frame, f1 = tr.dets.back().frame;
+  p.f0 = f0;
+  p.len = f1 - f0 + 1;
+  const auto len = static_cast<std::size_t>(p.len);
+  p.pos.resize(len);
+  p.vis.assign(len, 0.0);
+  p.t.resize(len);
+  p.seen.assign(len, false);
+  for (const auto& d : tr.dets) {
+    const Eigen::Vector2d ray = (d.centroid - d.camera).normalized();
+    const auto k = static_cast<std::size_t>(d.frame - f0);
+    p.pos[k] = d.centroid + ray * (r * M_PI / 4.0);
+    p.vis[k] = d.visible;
+    p.seen[k] = true;
+  }
+  for (std::size_t k = 0; k < len; ++k) {
+    p.t[k] = seq.frames[static_cast<std::size_t>(f0) + k].stamp - seq.frames[f0].stamp;
+  }
+  for (std::size_t k = 0, prev = 0; k < len; ++k) {
+    if (!p.seen[k]) continue;
+    for (std::size_t g = prev + 1; g < k; ++g) {
+      const double s = (p.t[g] - p.t[prev]) / (p.t[k] - p.t[prev]);
+      p.pos[g] = p.pos[prev] + s * (p.pos[k] - p.pos[prev]);
+    }
+    prev = k;
+  }
+  return p;
+}
+
+// Moving only: people who stand are static world. A track cut short by the sequence's start or
+// end may instead show walking by its fitted speed.
+bool is_moving(const TrackPath& p, bool short_at_boundary, const LabelOptions& opt) {
+  Eigen::Vector2d bmin = p.pos[0], bmax = p.pos[0];
+  for (const auto& q : p.pos) {
+    bmin = bmin.cwiseMin(q);
+    bmax = bmax.cwiseMax(q);
+  }
+  bool moving = (bmax - bmin).norm() >= opt.min_travel;
+  if (!moving && short_at_boundary) {
+    Eigen::Vector2d a, b;
+    moving =
+        line_fit(p.t, p.pos, 0, p.len - 1, p.t[0], &a, &b) && b.norm() >= opt.min_boundary_speed;
+  }
+  return moving;
+}
+
+// The rows of a kept track: position and velocity from local line fits, one row per frame.
+void append_rows(const TrackPath& p, int id, const Sequence& seq, const LabelOptions& opt,
+                 LabelResult& result) {
+  const int len = p.len;
+  const double r = p.radius, height = p.height;
+  for (int k = 0; k < len; ++k) {
+    Eigen::Vector2d a, b, a2, b2;
+    const int lo_p = std::max(0, k - opt.position_half_window);
+    const int hi_p = std::min(len - 1, k + opt.position_half_window);
+    const int lo_v = std::max(0, k - opt.velocity_half_window);
+    const int hi_v = std::min(len - 1, k + opt.velocity_half_window);
+    if (!line_fit(p.t, p.pos, lo_p, hi_p, p.t[k], &a, &b)) a = p.pos[k];
+    if (!line_fit(p.t, p.pos, lo_v, hi_v, p.t[k], &a2, &b2)) b2.setZero();
+    ObstacleRecord rec;
+    const SequenceFrame& fr =
+        seq.frames[static_cast<std::size_t>(p.f0) + static_cast<std::size_t>(k)];
+    rec.stamp = fr.stamp;
+    rec.stamp_text = fr.stamp_text;
+    rec.id = id;
+    rec.center = Eigen::Vector3d(a.x(), a.y(), opt.floor_z + 0.5 * height);
+    rec.velocity = Eigen::Vector3d(b2.x(), b2.y(), 0.0);
+    rec.size = Eigen::Vector3d(2 * r, 2 * r, height);
+    const auto ks = static_cast<std::size_t>(k);
+    rec.visible = p.seen[ks] ? p.vis[ks] : 0.0;
+    result.rows.push_back(rec);
+    if (!p.seen[ks]) ++result.summary.interpolated_rows;
+  }
+}
+
+// Pass 3, the tracks' rows: long enough tracks (shorter ones when cut by the sequence's ends)
+// that move, numbered from 1, rows sorted by frame, then id.
+void rows_of_tracks(const std::vector<Track>& tracks, const Sequence& seq, std::size_t nframes,
+                    const LabelOptions& opt, LabelResult& result) {
+  int next_id = 1;
+  for (const Track& tr : tracks) {
+    const int ndet = static_cast<int>(tr.dets.size());
+    const bool at_boundary = tr.dets.front().frame <= opt.max_gap ||
+                             tr.dets.back().frame >= static_cast<int>(nframes) - 1 - opt.max_gap;
+    if (ndet < (at_boundary ? opt.min_boundary_frames : opt.min_track_frames)) continue;
+    const TrackPath p = track_path(tr, seq, opt);
+    if (!is_moving(p, at_boundary && ndet < opt.min_track_frames, opt)) continue;
+    const int id = next_id++;
+    ++result.summary.tracks;
+    append_rows(p, id, seq, opt, result);
+  }
+  std::stable_sort(result.rows.begin(), result.rows.end(),
+                   [](const ObstacleRecord& a, const ObstacleRecord& b) {
+                     return a.stamp != b.stamp ? a.stamp < b.stamp : a.id < b.id;
+                   });
+  result.summary.rows = result.rows.size();
+}
+
+// Every overlay_every-th frame: the overlay PNG for checking by eye.
+void write_overlays(const Sequence& seq, std::size_t nframes, const std::vector<bool>& usable,
+                    const StaticModel& model, const LabelResult& result, const LabelOptions& opt) {
+  make_directories(opt.overlay_dir, "cannot create overlay directory");
+  for (std::size_t f = 0; f < nframes; f += static_cast<std::size_t>(opt.overlay_every)) {
+    Image16 depth;
+    if (!usable[f] || !load(seq, f, &depth)) continue;
+    std::vector<const ObstacleRecord*> here;
+    for (const auto& r : result.rows) {
+      if (r.stamp_text == seq.frames[f].stamp_text) here.push_back(&r);
+    }
+    char name[64];
+    std::snprintf(name, sizeof(name), "frame_%05zu.png", f);
+    write_overlay(join_path(opt.overlay_dir, name), depth, seq.camera, seq.frames[f].pose,
+                  model.free_points(depth, seq.frames[f].pose), here);
+  }
+}
+
 }  // namespace
 
 std::string describe(const LabelOptions& o) {
@@ -394,389 +896,21 @@ std::string describe(const LabelOptions& o) {
 
 LabelResult label_sequence(const std::string& seq_dir, const LabelOptions& opt) {
   const auto t_start = std::chrono::steady_clock::now();
-  auto say = [&](const std::string& s) {
-    if (opt.progress) opt.progress(s);
-  };
   LabelResult result;
   LabelSummary& sum = result.summary;
-  Sequence seq = read_sequence(seq_dir);
-  sum.listed = seq.images_listed;
-  sum.without_pose = seq.images_without_pose;
-  // A world_z_up 0 sequence is read gravity-aligned and levelled on its floor (z = 0); when no
-  // floor was found its heights are only guesses.
-  if (seq.camera.world_z_up != 1 && !seq.floor_levelled) {
-    sum.warnings.push_back(join_path(seq_dir, "camera.txt") +
-                           ": no 'world_z_up 1' and no floor found: the floor is assumed at z = " +
-                           std::to_string(opt.floor_z) + " of the gravity-aligned world");
-  }
-  for (const std::string& w : seq.warnings) sum.warnings.push_back(w);
-  const auto first =
-      std::min(seq.frames.size(), static_cast<std::size_t>(std::max(0, opt.first_frame)));
-  seq.frames.erase(seq.frames.begin(), seq.frames.begin() + static_cast<std::ptrdiff_t>(first));
-  std::size_t nframes = seq.frames.size();
-  if (opt.max_frames > 0) nframes = std::min(nframes, static_cast<std::size_t>(opt.max_frames));
-  sum.frames = nframes;
-  const CameraModel& cam = seq.camera;
-  if (nframes == 0) {
-    sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    return result;
-  }
-
-  // Grid bounds: every camera position +- max range in x / y (capped), floor to 3.5 m above.
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e18), hi = Eigen::Vector3d::Constant(-1e18);
-  for (std::size_t f = 0; f < nframes; ++f) {
-    lo = lo.cwiseMin(seq.frames[f].pose.translation);
-    hi = hi.cwiseMax(seq.frames[f].pose.translation);
-  }
-  for (int a = 0; a < 2; ++a) {
-    const double mid = 0.5 * (lo[a] + hi[a]);
-    lo[a] = std::max(lo[a] - opt.max_range, mid - 0.5 * opt.max_extent);
-    hi[a] = std::min(hi[a] + opt.max_range, mid + 0.5 * opt.max_extent);
-  }
-  lo.z() = opt.floor_z - 0.3;
-  hi.z() = opt.floor_z + 3.5;
-  VoxelGrid grid(lo, hi, opt.voxel);
-
-  std::vector<bool> usable(nframes, false);
-  auto load = [&](std::size_t f, Image16* img) {
-    try {
-      *img = load_depth(seq, seq.frames[f]);
-      return true;
-    } catch (const ToolError&) {
-      return false;
-    }
-  };
-
-  // Pass 1: the static model.
-  for (std::size_t f = 0; f < nframes; ++f) {
-    const SequenceFrame& fr = seq.frames[f];
-    Image16 depth;
-    try {
-      depth = load_depth(seq, fr);
-    } catch (const ToolError& e) {
-      sum.skipped.push_back(e.what());
-      say(std::string("skipping frame ") + fr.stamp_text + ": " + e.what());
-      continue;
-    }
-    usable[f] = true;
-    ++sum.frames_used;
-    const auto stamp = static_cast<std::uint16_t>((f % 0xFFFF) + 1);
-    const Eigen::Matrix3d R = fr.pose.rotation.toRotationMatrix();
-    const Eigen::Vector3d o = fr.pose.translation;
-    for (int v = opt.model_stride / 2; v < depth.height; v += opt.model_stride) {
-      for (int u = opt.model_stride / 2; u < depth.width; u += opt.model_stride) {
-        const std::uint16_t d = depth.at(u, v);
-        if (d == 0) {
-          if (opt.no_return_range > 0.0 && no_return_block(depth, u, v, opt.model_stride)) {
-            const Eigen::Vector3d ray =
-                R * Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
-            grid.carve(o, ray.normalized(), opt.no_return_range, stamp);
-          }
-          continue;
-        }
-        const double z = d / cam.depth_factor;
-        const Eigen::Vector3d pc((u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z);
-        const Eigen::Vector3d p = R * pc + o;
-        const double range = (p - o).norm();
-        if (range < 0.2) continue;
-        const Eigen::Vector3d dir = (p - o) / range;
-        if (range > opt.max_range) {
-          grid.carve(o, dir, opt.max_range, stamp);
-        } else {
-          if (range > opt.end_margin) grid.carve(o, dir, range - opt.end_margin, stamp);
-          grid.hit(p, stamp);
-        }
-      }
-    }
-    if ((f + 1) % 100 == 0 || f + 1 == nframes) {
-      say("model: " + std::to_string(f + 1) + "/" + std::to_string(nframes) + " frames");
-    }
-  }
-
-  // Voxel states: free (seen often, rarely occupied), static (often occupied), and the
-  // "dynamic-capable" voxels: free with no static neighbour (absorbs pose and depth noise at
-  // walls and the floor).
-  const int* n = grid.dims();
-  std::vector<std::uint8_t> state(grid.size(), 0);  // 0 unknown / between, 1 free, 2 static
-  for (std::size_t id = 0; id < grid.size(); ++id) {
-    const double h = grid.hits(id), obs = h + grid.passes(id);
-    if (obs < opt.min_observations) continue;
-    if (h < opt.free_ratio * obs) {
-      state[id] = 1;
-    } else if (h >= opt.static_ratio * obs) {
-      state[id] = 2;
-    }
-  }
-  if (opt.keep_static_model) result.static_model = static_voxels(grid, state);
-  std::vector<std::uint8_t> dynamic_ok(grid.size(), 0);
-  for (int k = 0; k < n[2]; ++k) {
-    for (int j = 0; j < n[1]; ++j) {
-      for (int i = 0; i < n[0]; ++i) {
-        const std::size_t id = grid.index(i, j, k);
-        if (state[id] != 1) continue;
-        bool ok = true;
-        for (int dk = -1; dk <= 1 && ok; ++dk) {
-          for (int dj = -1; dj <= 1 && ok; ++dj) {
-            for (int di = -1; di <= 1 && ok; ++di) {
-              const int a = i + di, b = j + dj, c = k + dk;
-              if (a < 0 || b < 0 || c < 0 || a >= n[0] || b >= n[1] || c >= n[2]) continue;
-              ok = state[grid.index(a, b, c)] != 2;
-            }
-          }
-        }
-        dynamic_ok[id] = ok ? 1 : 0;
-      }
-    }
-  }
-
-  // Depth noise grows with range: a far point can land well in front of the wall it belongs to.
-  // Such a point has a static voxel just behind it on its ray.
-  auto static_behind = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& p) {
-    const double r = (p - o).norm();
-    const Eigen::Vector3d dir = (p - o) / r;
-    const double reach = opt.behind_check + opt.behind_check_quadratic * r * r;
-    for (double s = 0.5 * opt.voxel; s <= reach; s += 0.5 * opt.voxel) {
-      int c[3];
-      if (grid.cell(p + s * dir, c) && state[grid.index(c[0], c[1], c[2])] == 2) return true;
-    }
-    return false;
-  };
-
-  // Points of a frame in space the model holds free: the candidates of moving people. Only
-  // points whose 3x3 image neighbourhood (at detect_stride) is mostly free count: depth noise
-  // leaves scattered free points on walls seen at grazing angles, a person is a solid region.
-  auto free_points = [&](const Image16& depth, const PoseD& pose) {
-    const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
-    const Eigen::Vector3d o = pose.translation;
-    const int gw = (depth.width + opt.detect_stride - 1) / opt.detect_stride;
-    const int gh = (depth.height + opt.detect_stride - 1) / opt.detect_stride;
-    std::vector<std::uint8_t> is_free(static_cast<std::size_t>(gw) * gh, 0);
-    std::vector<Eigen::Vector3d> world(is_free.size());
-    for (int gv = 0; gv < gh; ++gv) {
-      for (int gu = 0; gu < gw; ++gu) {
-        const int u = gu * opt.detect_stride, v = gv * opt.detect_stride;
-        const std::uint16_t d = depth.at(u, v);
-        if (d == 0) continue;
-        const double z = d / cam.depth_factor;
-        const Eigen::Vector3d pc((u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z);
-        const Eigen::Vector3d p = R * pc + o;
-        int c[3];
-        if (!grid.cell(p, c) || !dynamic_ok[grid.index(c[0], c[1], c[2])]) continue;
-        if (static_behind(o, p)) continue;
-        const std::size_t k = static_cast<std::size_t>(gv) * gw + gu;
-        is_free[k] = 1;
-        world[k] = p;
-      }
-    }
-    std::vector<Eigen::Vector3d> pts;
-    for (int gv = 0; gv < gh; ++gv) {
-      for (int gu = 0; gu < gw; ++gu) {
-        const std::size_t k = static_cast<std::size_t>(gv) * gw + gu;
-        if (!is_free[k]) continue;
-        const Eigen::Vector3d& p = world[k];
-        if (p.z() < opt.floor_z + opt.min_point_height || (p - o).norm() > opt.detect_range) {
-          continue;
-        }
-        int count = 0;
-        for (int dv = -1; dv <= 1; ++dv) {
-          for (int du = -1; du <= 1; ++du) {
-            const int a = gu + du, b = gv + dv;
-            if (a >= 0 && b >= 0 && a < gw && b < gh) {
-              count += is_free[static_cast<std::size_t>(b) * gw + a];
-            }
-          }
-        }
-        if (count >= opt.min_free_neighbours) pts.push_back(p);
-      }
-    }
-    return pts;
-  };
-
-  // Pass 2: per frame, person-like clusters of points in space the model holds free.
-  std::vector<std::vector<Detection>> dets(nframes);
-  for (std::size_t f = 0; f < nframes; ++f) {
-    if (!usable[f]) continue;
-    const SequenceFrame& fr = seq.frames[f];
-    Image16 depth;
-    if (!load(f, &depth)) continue;  // read in pass 1 already: only a changing file fails here
-    const Eigen::Vector3d o = fr.pose.translation;
-    const std::vector<Eigen::Vector3d> pts = free_points(depth, fr.pose);
-    for (const auto& members : cluster_top_view(pts, opt.cell)) {
-      if (static_cast<int>(members.size()) < opt.min_points) continue;
-      std::vector<double> zs, xs, ys;
-      Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-      for (int m : members) {
-        zs.push_back(pts[m].z());
-        xs.push_back(pts[m].x());
-        ys.push_back(pts[m].y());
-        centroid += pts[m].head<2>();
-      }
-      centroid /= static_cast<double>(members.size());
-      const double top = percentile(zs, 0.98) - opt.floor_z;
-      const double bottom = percentile(zs, 0.02) - opt.floor_z;
-      const double fx = percentile(xs, 0.98) - percentile(xs, 0.02);
-      const double fy = percentile(ys, 0.98) - percentile(ys, 0.02);
-      if (top < opt.min_top || top - bottom < opt.min_vertical_extent) continue;
-      if (std::hypot(fx, fy) > opt.max_footprint) continue;
-      Detection det;
-      det.frame = static_cast<int>(f);
-      det.centroid = centroid;
-      det.camera = o.head<2>();
-      det.top = top;
-      det.points = static_cast<int>(members.size());
-      const Eigen::Vector2d ray = (centroid - det.camera).normalized();
-      const Eigen::Vector2d across(-ray.y(), ray.x());
-      std::vector<double> w;
-      for (int m : members) w.push_back(across.dot(pts[m].head<2>() - centroid));
-      det.half_width = 0.5 * (percentile(w, 0.98) - percentile(w, 0.02));
-      const double r = std::clamp(det.half_width, opt.min_radius, opt.max_radius);
-      const Eigen::Vector2d c2 = centroid + ray * (r * M_PI / 4.0);
-      det.visible =
-          estimate_visible(depth, cam, fr.pose, Eigen::Vector3d(c2.x(), c2.y(), 0.5 * top),
-                           Eigen::Vector3d(2 * r, 2 * r, top));
-      dets[f].push_back(det);
-      ++sum.detections;
-    }
-    if ((f + 1) % 100 == 0 || f + 1 == nframes) {
-      say("detect: " + std::to_string(f + 1) + "/" + std::to_string(nframes) + " frames, " +
-          std::to_string(sum.detections) + " person-like clusters");
-    }
-  }
-
-  // Pass 3: association (gated nearest neighbour with a constant-velocity guess), greedy by
-  // distance, then per-track smoothing, gap filling and the moving-only filter.
-  std::vector<Track> tracks;
-  std::vector<std::size_t> active;
-  for (std::size_t f = 0; f < nframes; ++f) {
-    const int fi = static_cast<int>(f);
-    active.erase(std::remove_if(active.begin(), active.end(),
-                                [&](std::size_t t) {
-                                  return fi - tracks[t].dets.back().frame > opt.max_gap + 1;
-                                }),
-                 active.end());
-    struct Pair {
-      double cost;
-      std::size_t track, det;
-    };
-    std::vector<Pair> pairs;
-    for (std::size_t t : active) {
-      const Detection& last = tracks[t].dets.back();
-      const int gap = fi - last.frame;
-      const Eigen::Vector2d guess = last.centroid + tracks[t].velocity_per_frame() * gap;
-      const double gate = opt.gate + 0.1 * (gap - 1);
-      for (std::size_t d = 0; d < dets[f].size(); ++d) {
-        const double c = (dets[f][d].centroid - guess).norm();
-        if (c <= gate) pairs.push_back({c, t, d});
-      }
-    }
-    std::sort(pairs.begin(), pairs.end(),
-              [](const Pair& a, const Pair& b) { return a.cost < b.cost; });
-    std::vector<bool> det_used(dets[f].size(), false);
-    std::vector<std::size_t> fed;
-    for (const Pair& p : pairs) {
-      if (det_used[p.det] || std::find(fed.begin(), fed.end(), p.track) != fed.end()) continue;
-      det_used[p.det] = true;
-      fed.push_back(p.track);
-      tracks[p.track].dets.push_back(dets[f][p.det]);
-    }
-    for (std::size_t d = 0; d < dets[f].size(); ++d) {
-      if (det_used[d]) continue;
-      tracks.push_back(Track{{dets[f][d]}});
-      active.push_back(tracks.size() - 1);
-    }
-  }
-
-  int next_id = 1;
-  for (const Track& tr : tracks) {
-    const int ndet = static_cast<int>(tr.dets.size());
-    const bool at_boundary = tr.dets.front().frame <= opt.max_gap ||
-                             tr.dets.back().frame >= static_cast<int>(nframes) - 1 - opt.max_gap;
-    if (ndet < (at_boundary ? opt.min_boundary_frames : opt.min_track_frames)) continue;
-    std::vector<double> widths, tops;
-    for (const auto& d : tr.dets) {
-      widths.push_back(d.half_width);
-      tops.push_back(d.top);
-    }
-    const double r = std::clamp(median(widths), opt.min_radius, opt.max_radius);
-    const double height = median(tops);
-    // Every frame of the track: observed centres (corrected to the body axis), gaps linear.
-    const int f0 = tr.dets.front().frame, f1 = tr.dets.back().frame;
-    const int len = f1 - f0 + 1;
-    std::vector<Eigen::Vector2d> pos(static_cast<std::size_t>(len));
-    std::vector<double> vis(static_cast<std::size_t>(len), 0.0), t(static_cast<std::size_t>(len));
-    std::vector<bool> seen(static_cast<std::size_t>(len), false);
-    for (const auto& d : tr.dets) {
-      const Eigen::Vector2d ray = (d.centroid - d.camera).normalized();
-      const auto k = static_cast<std::size_t>(d.frame - f0);
-      pos[k] = d.centroid + ray * (r * M_PI / 4.0);
-      vis[k] = d.visible;
-      seen[k] = true;
-    }
-    for (std::size_t k = 0; k < pos.size(); ++k) {
-      t[k] = seq.frames[static_cast<std::size_t>(f0) + k].stamp - seq.frames[f0].stamp;
-    }
-    for (std::size_t k = 0, prev = 0; k < pos.size(); ++k) {
-      if (!seen[k]) continue;
-      for (std::size_t g = prev + 1; g < k; ++g) {
-        const double s = (t[g] - t[prev]) / (t[k] - t[prev]);
-        pos[g] = pos[prev] + s * (pos[k] - pos[prev]);
-      }
-      prev = k;
-    }
-    Eigen::Vector2d bmin = pos[0], bmax = pos[0];
-    for (const auto& p : pos) {
-      bmin = bmin.cwiseMin(p);
-      bmax = bmax.cwiseMax(p);
-    }
-    // Moving only: people who stand are static world. A track cut short by the sequence's
-    // start or end may instead show walking by its fitted speed.
-    bool moving = (bmax - bmin).norm() >= opt.min_travel;
-    if (!moving && at_boundary && ndet < opt.min_track_frames) {
-      Eigen::Vector2d a, b;
-      moving = line_fit(t, pos, 0, len - 1, t[0], &a, &b) && b.norm() >= opt.min_boundary_speed;
-    }
-    if (!moving) continue;
-    const int id = next_id++;
-    ++sum.tracks;
-    for (int k = 0; k < len; ++k) {
-      Eigen::Vector2d a, b, a2, b2;
-      const int lo_p = std::max(0, k - opt.position_half_window);
-      const int hi_p = std::min(len - 1, k + opt.position_half_window);
-      const int lo_v = std::max(0, k - opt.velocity_half_window);
-      const int hi_v = std::min(len - 1, k + opt.velocity_half_window);
-      if (!line_fit(t, pos, lo_p, hi_p, t[k], &a, &b)) a = pos[k];
-      if (!line_fit(t, pos, lo_v, hi_v, t[k], &a2, &b2)) b2.setZero();
-      ObstacleRecord rec;
-      const SequenceFrame& fr = seq.frames[static_cast<std::size_t>(f0 + k)];
-      rec.stamp = fr.stamp;
-      rec.stamp_text = fr.stamp_text;
-      rec.id = id;
-      rec.center = Eigen::Vector3d(a.x(), a.y(), opt.floor_z + 0.5 * height);
-      rec.velocity = Eigen::Vector3d(b2.x(), b2.y(), 0.0);
-      rec.size = Eigen::Vector3d(2 * r, 2 * r, height);
-      rec.visible = seen[static_cast<std::size_t>(k)] ? vis[static_cast<std::size_t>(k)] : 0.0;
-      result.rows.push_back(rec);
-      if (!seen[static_cast<std::size_t>(k)]) ++sum.interpolated_rows;
-    }
-  }
-  std::stable_sort(result.rows.begin(), result.rows.end(),
-                   [](const ObstacleRecord& a, const ObstacleRecord& b) {
-                     return a.stamp != b.stamp ? a.stamp < b.stamp : a.id < b.id;
-                   });
-  sum.rows = result.rows.size();
-  if (opt.overlay_every > 0 && !opt.overlay_dir.empty()) {
-    make_directories(opt.overlay_dir, "cannot create overlay directory");
-    for (std::size_t f = 0; f < nframes; f += static_cast<std::size_t>(opt.overlay_every)) {
-      Image16 depth;
-      if (!usable[f] || !load(f, &depth)) continue;
-      std::vector<const ObstacleRecord*> here;
-      for (const auto& r : result.rows) {
-        if (r.stamp_text == seq.frames[f].stamp_text) here.push_back(&r);
-      }
-      char name[64];
-      std::snprintf(name, sizeof(name), "frame_%05zu.png", f);
-      write_overlay(join_path(opt.overlay_dir, name), depth, cam, seq.frames[f].pose,
-                    free_points(depth, seq.frames[f].pose), here);
+  const Sequence seq = open_sequence(seq_dir, opt, sum);
+  const std::size_t nframes = sum.frames;
+  if (nframes > 0) {
+    VoxelGrid grid = make_grid(seq, nframes, opt);
+    std::vector<bool> usable(nframes, false);
+    build_model(seq, nframes, opt, grid, usable, sum);
+    const StaticModel model(std::move(grid), opt, seq.camera);
+    if (opt.keep_static_model) result.static_model = model.static_model_voxels();
+    const std::vector<Track> tracks =
+        associate(detect_people(seq, nframes, usable, model, opt, sum), opt);
+    rows_of_tracks(tracks, seq, nframes, opt, result);
+    if (opt.overlay_every > 0 && !opt.overlay_dir.empty()) {
+      write_overlays(seq, nframes, usable, model, result, opt);
     }
   }
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
