@@ -93,6 +93,35 @@ void usage(std::ostream& os) {
      << bag_options_usage();
 }
 
+// --help, --help-params and --params-markdown print their text on stdout: true for those.
+bool print_help(const std::string& a) {
+  if (a == "--help" || a == "-h") {
+    usage(std::cout);
+  } else if (a == "--help-params") {
+    for (const std::string& line : describe_params(replay_defaults(), true)) {
+      std::cout << line << "\n";
+    }
+  } else if (a == "--params-markdown") {
+    std::cout << parameters_markdown();
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// --poses tum|bonn; false (with the message on stderr) for anything else.
+bool parse_poses(const std::string& p, PoseConvention& poses) {
+  if (p == "tum") {
+    poses = PoseConvention::kTum;
+  } else if (p == "bonn") {
+    poses = PoseConvention::kBonn;
+  } else {
+    std::cerr << "dynamap-replay: --poses takes tum or bonn, not '" << p << "'\n";
+    return false;
+  }
+  return true;
+}
+
 bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -115,18 +144,7 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
       }
       return true;
     };
-    if (a == "--help" || a == "-h") {
-      usage(std::cout);
-      exit_code = 0;
-      return false;
-    } else if (a == "--help-params") {
-      for (const std::string& line : describe_params(replay_defaults(), true)) {
-        std::cout << line << "\n";
-      }
-      exit_code = 0;
-      return false;
-    } else if (a == "--params-markdown") {
-      std::cout << parameters_markdown();
+    if (print_help(a)) {
       exit_code = 0;
       return false;
     } else if (a == "--out") {
@@ -156,15 +174,7 @@ bool parse_args(int argc, char** argv, Options& o, int& exit_code) {
     } else if (a == "--poses") {
       const char* v = value("--poses");
       if (v == nullptr) return false;
-      const std::string p = v;
-      if (p == "tum") {
-        o.poses = PoseConvention::kTum;
-      } else if (p == "bonn") {
-        o.poses = PoseConvention::kBonn;
-      } else {
-        std::cerr << "dynamap-replay: --poses takes tum or bonn, not '" << p << "'\n";
-        return false;
-      }
+      if (!parse_poses(v, o.poses)) return false;
     } else if (bool bad = false; parse_replay_extra(argc, argv, i, o.extras, bad)) {
       if (bad) return false;
     } else if (!a.empty() && a[0] == '-') {
@@ -310,207 +320,255 @@ void print_model_holes(const ModelHoleCounts& h, float max_depth) {
           : "");
 }
 
-int run(const Options& o) {
+// The sequence, checked against the library's image size limit; its warnings on stderr.
+Sequence read_replay_sequence(const Options& o) {
   SequenceReadOptions read_options;
   read_options.poses = o.poses;
   read_options.bag = o.extras.bag;
-  const Sequence seq = read_sequence(o.seq, read_options);
+  Sequence seq = read_sequence(o.seq, read_options);
   if (seq.frames.empty()) throw ToolError(o.seq + ": no depth image has a pose; nothing to replay");
   for (const std::string& w : seq.warnings) std::cerr << "warning: " << w << "\n";
-
   const CameraModel& cam = seq.camera;
   if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) {
     throw ToolError(o.seq + "/camera.txt: image " + std::to_string(cam.width) + "x" +
                     std::to_string(cam.height) + " is larger than the library's maximum " +
                     std::to_string(kMaxImageWidth) + "x" + std::to_string(kMaxImageHeight));
   }
-  const PipelineConfig config = config_for_sequence(seq, o.params);
-  const auto pipeline = make_pipeline(config);
-  if (o.cpu_clock) pipeline->set_clock(&thread_cpu_clock);
+  return seq;
+}
 
+// A simulated sequence's truth: static_world.txt and obstacles.txt, each when present.
+struct Truth {
   std::unique_ptr<StaticWorld> world;
-  const std::string world_path = join_path(o.seq, "static_world.txt");
-  if (file_exists(world_path)) world = std::make_unique<StaticWorld>(read_static_world(world_path));
-  std::vector<ObstacleRecord> truth;
-  const std::string truth_path = join_path(o.seq, "obstacles.txt");
-  if (file_exists(truth_path)) truth = read_obstacles(truth_path);
-  const auto foxglove = make_foxglove_output(o.extras, seq, truth);
+  std::vector<ObstacleRecord> obstacles;
+};
 
-  std::vector<MapVoxel> model;  // read before the replay: a bad file fails at once
-  if (!o.static_model.empty()) model = read_map_ply(o.static_model);
+Truth read_truth(const std::string& seq_dir) {
+  Truth t;
+  const std::string world_path = join_path(seq_dir, "static_world.txt");
+  if (file_exists(world_path))
+    t.world = std::make_unique<StaticWorld>(read_static_world(world_path));
+  const std::string truth_path = join_path(seq_dir, "obstacles.txt");
+  if (file_exists(truth_path)) t.obstacles = read_obstacles(truth_path);
+  return t;
+}
+
+// The per-frame CSV files, with their header lines.
+struct OutputFiles {
+  std::ofstream tracks, preds, linear, timing, detections;
+};
+
+OutputFiles open_outputs(const Options& o) {
   make_directories(o.out, "cannot create the output directory");
   if (o.picture_every > 0)
     make_directories(join_path(o.out, "frames"), "cannot create the output directory");
-  std::ofstream tracks = open_out(join_path(o.out, "tracks.csv"));
-  std::ofstream preds = open_out(join_path(o.out, "predictions.csv"));
-  std::ofstream linear = open_out(join_path(o.out, "predictions_linear.csv"));
-  std::ofstream timing = open_out(join_path(o.out, "timing.csv"));
-  std::ofstream detections = open_out(join_path(o.out, "detections.csv"));
-  tracks << "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n";
-  detections << "stamp,index,x,y,z,sx,sy,sz,u0,v0,u1,v1,refined\n";
-  preds << "stamp,id,path,probability,k,t,x,y,z\n";
-  linear << "stamp,id,path,probability,k,t,x,y,z\n";
-  timing << "stamp";
-  for (std::size_t k = 0; k < kStageCount; ++k) timing << "," << to_string(static_cast<Stage>(k));
-  timing << ",total\n";
+  OutputFiles f;
+  f.tracks = open_out(join_path(o.out, "tracks.csv"));
+  f.preds = open_out(join_path(o.out, "predictions.csv"));
+  f.linear = open_out(join_path(o.out, "predictions_linear.csv"));
+  f.timing = open_out(join_path(o.out, "timing.csv"));
+  f.detections = open_out(join_path(o.out, "detections.csv"));
+  f.tracks << "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n";
+  f.detections << "stamp,index,x,y,z,sx,sy,sz,u0,v0,u1,v1,refined\n";
+  f.preds << "stamp,id,path,probability,k,t,x,y,z\n";
+  f.linear << "stamp,id,path,probability,k,t,x,y,z\n";
+  f.timing << "stamp";
+  for (std::size_t k = 0; k < kStageCount; ++k) f.timing << "," << to_string(static_cast<Stage>(k));
+  f.timing << ",total\n";
+  return f;
+}
 
-  std::unique_ptr<MapFrameLog> map_log;
-  if (world != nullptr && o.map_checks)
-    map_log = std::make_unique<MapFrameLog>(*world, pipeline->map(), o.out);
-
-  auto out = std::make_unique<FrameOutput>();
-  PictureState ps;
-  const std::size_t n = o.max_frames >= 0
-                            ? std::min(seq.frames.size(), static_cast<std::size_t>(o.max_frames))
-                            : seq.frames.size();
+// What the summary reports, gathered frame by frame.
+struct ReplayTally {
   std::set<std::uint32_t> ids, dynamic_ids;
   std::size_t rejected = 0, pictures = 0;
   SkippedDepth skipped;
-  Image16 depth;
   std::vector<double> decode_ms, process_ms;
   std::array<std::vector<double>, kStageCount> stage_ms;
   Pose last_pose;
   double last_stamp = 0.0;
-  const double t_start = wall_seconds();
-  double t_report = t_start;
+};
 
-  for (std::size_t i = 0; i < n; ++i) {
-    const SequenceFrame& sf = seq.frames[i];
-    const double t0 = wall_seconds();
-    std::string problem_text;
-    const DepthProblem problem = try_load_depth(seq, sf, &depth, &problem_text);
-    if (problem != DepthProblem::kNone) {
-      if (o.strict) throw ToolError(problem_text + " (--strict)");
-      ++skipped.count[problem];
-      skipped.messages.push_back(problem_text);
-      std::cerr << (o.quiet ? "" : "\n") << "warning: skipped: " << problem_text << "\n";
-      continue;
+// tracks.csv: every obstacle; path = chosen prediction of a dynamic track, else -1. Notes the
+// ids and the dynamic tracks' paths for the pictures.
+void write_track_rows(std::ostream& tracks, const std::string& stamp_text, const FrameOutput& out,
+                      ReplayTally& tally, PictureState& ps) {
+  for (std::size_t k = 0; k < out.num_obstacles; ++k) {
+    const TrackedObstacle& ob = out.obstacles[k];
+    int path = -1;
+    for (std::size_t j = 0; j < out.num_predictions; ++j) {
+      if (out.predictions[j].track_id == ob.id) path = static_cast<int>(out.predictions[j].chosen);
     }
-    decode_ms.push_back(1e3 * (wall_seconds() - t0));
+    const Eigen::Vector3f c = ob.box.center(), sz = ob.box.size();
+    tracks << stamp_text << "," << ob.id << "," << c.x() << "," << c.y() << "," << c.z() << ","
+           << ob.velocity.x() << "," << ob.velocity.y() << "," << ob.velocity.z() << "," << sz.x()
+           << "," << sz.y() << "," << sz.z() << "," << (ob.dynamic ? 1 : 0) << "," << path << "\n";
+    tally.ids.insert(ob.id);
+    if (ob.dynamic) {
+      tally.dynamic_ids.insert(ob.id);
+      ps.dynamic_paths[ob.id].push_back(c.head<2>().cast<double>());
+    }
+  }
+}
+
+// predictions.csv, predictions_linear.csv and timing.csv rows of one frame.
+void write_prediction_and_timing_rows(OutputFiles& f, const std::string& stamp_text,
+                                      const FrameOutput& out, bool linear_baseline) {
+  for (std::size_t j = 0; j < out.num_predictions; ++j) {
+    write_prediction_rows(f.preds, stamp_text, out.predictions[j]);
+    if (linear_baseline) write_prediction_rows(f.linear, stamp_text, out.linear_predictions[j]);
+  }
+  f.timing << stamp_text;
+  for (std::size_t k = 0; k < kStageCount; ++k)
+    f.timing << "," << 1e-3 * static_cast<double>(out.stage_ns[k]);
+  f.timing << "," << 1e-3 * static_cast<double>(out.total_ns) << "\n";
+}
+
+// The frames, one by one: decode, process, write the per-frame rows and pictures, tally.
+class FrameLoop {
+ public:
+  FrameLoop(const Options& o, const Sequence& seq, const PipelineConfig& config, Pipeline& pipeline,
+            const Truth& truth, FoxgloveOutput* foxglove, OutputFiles& files, MapFrameLog* map_log)
+      : o_(o),
+        seq_(seq),
+        config_(config),
+        pipeline_(pipeline),
+        truth_(truth),
+        foxglove_(foxglove),
+        files_(files),
+        map_log_(map_log) {}
+
+  // Frames [0, n); progress on stderr unless --quiet.
+  void run(std::size_t n) {
+    t_start_ = wall_seconds();
+    double t_report = t_start_;
+    for (std::size_t i = 0; i < n; ++i) {
+      frame(i);
+      const double now = wall_seconds();
+      if (!o_.quiet && (now - t_report > 1.0 || i + 1 == n)) {
+        std::fprintf(stderr, "\rreplay: frame %zu/%zu  (%.0f frames/s)   ", i + 1, n,
+                     static_cast<double>(i + 1) / std::max(1e-9, now - t_start_));
+        t_report = now;
+      }
+    }
+  }
+
+  // The top view of the current state (its truth up to `stamp`).
+  TopViewScene scene(double stamp, const std::string& title, const std::string& subtitle) const {
+    return build_scene(pipeline_, *out_, ps_, truth_.world.get(), truth_.obstacles, stamp,
+                       tally_.last_pose, seq_.camera, title, subtitle);
+  }
+
+  double start_seconds() const { return t_start_; }
+  const ReplayTally& tally() const { return tally_; }
+
+ private:
+  void frame(std::size_t i) {
+    const SequenceFrame& sf = seq_.frames[i];
+    const double t0 = wall_seconds();
+    if (!load(sf)) return;
+    tally_.decode_ms.push_back(1e3 * (wall_seconds() - t0));
     Frame frame;
-    frame.stamp = seq.stamp_ns(sf.stamp);
+    frame.stamp = seq_.stamp_ns(sf.stamp);
     frame.T_map_camera = to_pose(sf.pose);
-    frame.depth = DepthView{depth.pixels.data(), depth.width, depth.height,
-                            depth.width * static_cast<int>(sizeof(std::uint16_t))};
-    const Status s = pipeline->process(frame, *out);
+    frame.depth = DepthView{depth_.pixels.data(), depth_.width, depth_.height,
+                            depth_.width * static_cast<int>(sizeof(std::uint16_t))};
+    const Status s = pipeline_.process(frame, *out_);
     if (!ok(s)) {
-      ++rejected;
+      ++tally_.rejected;
       std::cerr << "warning: " << sf.depth_path << " at " << sf.stamp_text
                 << ": frame rejected: " << to_string(s) << "\n";
-      continue;
+      return;
     }
-    process_ms.push_back(1e-6 * static_cast<double>(out->total_ns));
+    tally_.process_ms.push_back(1e-6 * static_cast<double>(out_->total_ns));
     for (std::size_t k = 0; k < kStageCount; ++k) {
-      stage_ms[k].push_back(1e-6 * static_cast<double>(out->stage_ns[k]));
+      tally_.stage_ms[k].push_back(1e-6 * static_cast<double>(out_->stage_ns[k]));
     }
-    last_pose = frame.T_map_camera;
-    last_stamp = sf.stamp;
-    ps.camera.push_back(frame.T_map_camera.translation.head<2>().cast<double>());
-
-    // tracks.csv: every obstacle; path = chosen prediction of a dynamic track, else -1.
-    for (std::size_t k = 0; k < out->num_obstacles; ++k) {
-      const TrackedObstacle& ob = out->obstacles[k];
-      int path = -1;
-      for (std::size_t j = 0; j < out->num_predictions; ++j) {
-        if (out->predictions[j].track_id == ob.id)
-          path = static_cast<int>(out->predictions[j].chosen);
-      }
-      const Eigen::Vector3f c = ob.box.center(), sz = ob.box.size();
-      tracks << sf.stamp_text << "," << ob.id << "," << c.x() << "," << c.y() << "," << c.z() << ","
-             << ob.velocity.x() << "," << ob.velocity.y() << "," << ob.velocity.z() << "," << sz.x()
-             << "," << sz.y() << "," << sz.z() << "," << (ob.dynamic ? 1 : 0) << "," << path
-             << "\n";
-      ids.insert(ob.id);
-      if (ob.dynamic) {
-        dynamic_ids.insert(ob.id);
-        ps.dynamic_paths[ob.id].push_back(c.head<2>().cast<double>());
-      }
-    }
-    if (foxglove) foxglove->frame(sf, frame.stamp, depth, frame.T_map_camera, *pipeline, *out);
-    write_detection_rows(detections, sf.stamp_text, pipeline->detections());
-    for (std::size_t j = 0; j < out->num_predictions; ++j) {
-      write_prediction_rows(preds, sf.stamp_text, out->predictions[j]);
-      if (config.run_linear_baseline)
-        write_prediction_rows(linear, sf.stamp_text, out->linear_predictions[j]);
-    }
-    timing << sf.stamp_text;
-    for (std::size_t k = 0; k < kStageCount; ++k)
-      timing << "," << 1e-3 * static_cast<double>(out->stage_ns[k]);
-    timing << "," << 1e-3 * static_cast<double>(out->total_ns) << "\n";
-    if (map_log != nullptr)
-      map_log->record(pipeline->map(), sf.stamp_text, frame.T_map_camera.translation);
-
-    if (o.picture_every > 0 && i % static_cast<std::size_t>(o.picture_every) == 0) {
+    tally_.last_pose = frame.T_map_camera;
+    tally_.last_stamp = sf.stamp;
+    ps_.camera.push_back(frame.T_map_camera.translation.head<2>().cast<double>());
+    write_outputs(sf, frame);
+    if (o_.picture_every > 0 && i % static_cast<std::size_t>(o_.picture_every) == 0) {
       char name[64];
       std::snprintf(name, sizeof(name), "frames/frame_%05zu.png", i);
-      render_top_view(
-          build_scene(*pipeline, *out, ps, world.get(), truth, sf.stamp, last_pose, cam,
-                      "dynamap  " + o.seq, "frame " + std::to_string(i) + "  t = " + sf.stamp_text),
-          join_path(o.out, name));
-      ++pictures;
-    }
-    const double now = wall_seconds();
-    if (!o.quiet && (now - t_report > 1.0 || i + 1 == n)) {
-      std::fprintf(stderr, "\rreplay: frame %zu/%zu  (%.0f frames/s)   ", i + 1, n,
-                   static_cast<double>(i + 1) / std::max(1e-9, now - t_start));
-      t_report = now;
+      render_top_view(scene(sf.stamp, "dynamap  " + o_.seq,
+                            "frame " + std::to_string(i) + "  t = " + sf.stamp_text),
+                      join_path(o_.out, name));
+      ++tally_.pictures;
     }
   }
-  if (!o.quiet) std::fprintf(stderr, "\n");
-  if (foxglove) foxglove->close();
-  const double elapsed = wall_seconds() - t_start;
-  if (process_ms.empty()) {
-    throw ToolError(o.seq + ": none of the " + std::to_string(n) +
-                    " frames could be replayed (see the warnings above)");
+
+  // The frame's depth image into depth_; a file that cannot be used is counted and named (or
+  // stops the replay with --strict).
+  bool load(const SequenceFrame& sf) {
+    std::string problem_text;
+    const DepthProblem problem = try_load_depth(seq_, sf, &depth_, &problem_text);
+    if (problem == DepthProblem::kNone) return true;
+    if (o_.strict) throw ToolError(problem_text + " (--strict)");
+    ++tally_.skipped.count[problem];
+    tally_.skipped.messages.push_back(problem_text);
+    std::cerr << (o_.quiet ? "" : "\n") << "warning: skipped: " << problem_text << "\n";
+    return false;
   }
 
-  render_top_view(build_scene(*pipeline, *out, ps, world.get(), truth, last_stamp, last_pose, cam,
-                              "dynamap: final state of " + o.seq,
-                              std::to_string(n) + " frames, " + std::to_string(dynamic_ids.size()) +
-                                  " dynamic tracks"),
-                  join_path(o.out, "topview.png"));
-
-  const FinalMapCounts map_counts =
-      write_final_map(pipeline->map(), config, last_pose, process_ms.size(), o.out,
-                      o.static_model.empty() ? nullptr : &model);
-
-  const PipelineCounters& c = pipeline->counters();
-  std::printf("dynamap-replay %s -> %s\n", o.seq.c_str(), o.out.c_str());
-  std::printf("  poses: %s%s\n", seq.pose_file.c_str(),
-              o.poses == PoseConvention::kBonn ? " (Bonn marker poses, converted)" : "");
-  std::printf(
-      "  frames: %zu listed, %zu without pose (skipped), %zu depth files skipped, %zu processed, "
-      "%zu rejected\n",
-      seq.images_listed, seq.images_without_pose, skipped.total(), process_ms.size(), rejected);
-  if (skipped.total() > 0) {
-    std::printf("  skipped depth files:");
-    const char* sep = " ";
-    for (const auto& [problem, k] : skipped.count) {
-      std::printf("%s%zu %s", sep, k, to_string(problem));
-      sep = ", ";
+  // The per-frame rows (tracks, Foxglove, detections, predictions, timing, map checks).
+  void write_outputs(const SequenceFrame& sf, const Frame& frame) {
+    write_track_rows(files_.tracks, sf.stamp_text, *out_, tally_, ps_);
+    if (foxglove_ != nullptr) {
+      foxglove_->frame(sf, frame.stamp, depth_, frame.T_map_camera, pipeline_, *out_);
     }
-    std::printf("\n");
-    constexpr std::size_t kNamed = 10;  // a long list of gaps would bury the summary
-    for (std::size_t k = 0; k < std::min(kNamed, skipped.messages.size()); ++k) {
-      std::printf("    %s\n", skipped.messages[k].c_str());
-    }
-    if (skipped.messages.size() > kNamed) {
-      std::printf("    ... and %zu more (each one is on stderr)\n",
-                  skipped.messages.size() - kNamed);
-    }
+    write_detection_rows(files_.detections, sf.stamp_text, pipeline_.detections());
+    write_prediction_and_timing_rows(files_, sf.stamp_text, *out_, config_.run_linear_baseline);
+    if (map_log_ != nullptr)
+      map_log_->record(pipeline_.map(), sf.stamp_text, frame.T_map_camera.translation);
   }
-  std::printf("  tracks: %zu ids, %zu ever labelled dynamic\n", ids.size(), dynamic_ids.size());
+
+  const Options& o_;
+  const Sequence& seq_;
+  const PipelineConfig& config_;
+  Pipeline& pipeline_;
+  const Truth& truth_;
+  FoxgloveOutput* foxglove_;
+  OutputFiles& files_;
+  MapFrameLog* map_log_;
+  std::unique_ptr<FrameOutput> out_ = std::make_unique<FrameOutput>();
+  PictureState ps_;
+  ReplayTally tally_;
+  Image16 depth_;
+  double t_start_ = 0.0;
+};
+
+// Summary: the listed depth files that were skipped, by problem, the first ones named.
+void print_skipped(const SkippedDepth& skipped) {
+  std::printf("  skipped depth files:");
+  const char* sep = " ";
+  for (const auto& [problem, k] : skipped.count) {
+    std::printf("%s%zu %s", sep, k, to_string(problem));
+    sep = ", ";
+  }
+  std::printf("\n");
+  constexpr std::size_t kNamed = 10;  // a long list of gaps would bury the summary
+  for (std::size_t k = 0; k < std::min(kNamed, skipped.messages.size()); ++k) {
+    std::printf("    %s\n", skipped.messages[k].c_str());
+  }
+  if (skipped.messages.size() > kNamed) {
+    std::printf("    ... and %zu more (each one is on stderr)\n", skipped.messages.size() - kNamed);
+  }
+}
+
+// Summary: per-stage time per frame (median, p99, max) and the pipeline's counters.
+void print_times_and_counters(const Options& o, const ReplayTally& t, const PipelineCounters& c) {
   std::printf("  time per frame (ms, %s)   median     p99     max\n",
               o.cpu_clock ? "thread CPU time" : "wall time");
   for (std::size_t k = 0; k < kStageCount; ++k) {
     std::printf("    %-16s %9.3f %7.3f %7.3f\n", to_string(static_cast<Stage>(k)),
-                percentile_ms(stage_ms[k], 0.5), percentile_ms(stage_ms[k], 0.99),
-                percentile_ms(stage_ms[k], 1.0));
+                percentile_ms(t.stage_ms[k], 0.5), percentile_ms(t.stage_ms[k], 0.99),
+                percentile_ms(t.stage_ms[k], 1.0));
   }
-  std::printf("    %-16s %9.3f %7.3f %7.3f\n", "total", percentile_ms(process_ms, 0.5),
-              percentile_ms(process_ms, 0.99), percentile_ms(process_ms, 1.0));
-  std::printf("    %-16s %9.3f %7.3f %7.3f\n", "png decode", percentile_ms(decode_ms, 0.5),
-              percentile_ms(decode_ms, 0.99), percentile_ms(decode_ms, 1.0));
+  std::printf("    %-16s %9.3f %7.3f %7.3f\n", "total", percentile_ms(t.process_ms, 0.5),
+              percentile_ms(t.process_ms, 0.99), percentile_ms(t.process_ms, 1.0));
+  std::printf("    %-16s %9.3f %7.3f %7.3f\n", "png decode", percentile_ms(t.decode_ms, 0.5),
+              percentile_ms(t.decode_ms, 0.99), percentile_ms(t.decode_ms, 1.0));
   std::printf(
       "  counters: rays dropped %llu, blocks evicted %llu, detections dropped %llu, "
       "groups split %llu, tracks refused %llu, frames rejected %llu, step errors %llu\n",
@@ -521,20 +579,80 @@ int run(const Options& o) {
       static_cast<unsigned long long>(c.tracks_refused),
       static_cast<unsigned long long>(c.frames_rejected),
       static_cast<unsigned long long>(c.step_errors));
-  std::printf("  wall time %.2f s (%.1f frames/s incl. PNG decode and output)\n", elapsed,
-              static_cast<double>(n) / std::max(1e-9, elapsed));
+}
+
+// What a replay prints when it is done.
+struct ReplayReport {
+  std::size_t n = 0;     // frames attempted
+  double elapsed = 0.0;  // s, wall time of the frame loop
+  FinalMapCounts map;    // the final map
+  const MapFrameLog* map_log = nullptr;
+};
+
+void print_summary(const Options& o, const Sequence& seq, const PipelineConfig& config,
+                   const Pipeline& pipeline, const ReplayTally& t, const ReplayReport& r) {
+  std::printf("dynamap-replay %s -> %s\n", o.seq.c_str(), o.out.c_str());
+  std::printf("  poses: %s%s\n", seq.pose_file.c_str(),
+              o.poses == PoseConvention::kBonn ? " (Bonn marker poses, converted)" : "");
+  std::printf(
+      "  frames: %zu listed, %zu without pose (skipped), %zu depth files skipped, %zu processed, "
+      "%zu rejected\n",
+      seq.images_listed, seq.images_without_pose, t.skipped.total(), t.process_ms.size(),
+      t.rejected);
+  if (t.skipped.total() > 0) print_skipped(t.skipped);
+  std::printf("  tracks: %zu ids, %zu ever labelled dynamic\n", t.ids.size(), t.dynamic_ids.size());
+  print_times_and_counters(o, t, pipeline.counters());
+  std::printf("  wall time %.2f s (%.1f frames/s incl. PNG decode and output)\n", r.elapsed,
+              static_cast<double>(r.n) / std::max(1e-9, r.elapsed));
   std::printf(
       "  wrote tracks.csv, detections.csv, predictions.csv, predictions_linear.csv, timing.csv, "
       "topview.png%s\n",
-      pictures > 0 ? (", " + std::to_string(pictures) + " pictures in frames/").c_str() : "");
+      t.pictures > 0 ? (", " + std::to_string(t.pictures) + " pictures in frames/").c_str() : "");
   std::printf(
       "  final map: %zu occupied voxels (map.ply, map_summary.txt); local region: %zu occupied, "
       "%zu free, %zu unknown; written in %.1f ms\n",
-      map_counts.occupied, map_counts.region_occupied, map_counts.region_free,
-      map_counts.region_unknown, 1e3 * map_counts.seconds);
-  if (map_log != nullptr) std::printf("  %s (map_frames.csv)\n", map_log->summary().c_str());
-  if (map_counts.has_model) print_model_holes(map_counts.model, config.map.max_depth);
-  return skipped.total() > 0 ? kExitCompletedWithGaps : 0;
+      r.map.occupied, r.map.region_occupied, r.map.region_free, r.map.region_unknown,
+      1e3 * r.map.seconds);
+  if (r.map_log != nullptr) std::printf("  %s (map_frames.csv)\n", r.map_log->summary().c_str());
+  if (r.map.has_model) print_model_holes(r.map.model, config.map.max_depth);
+}
+
+int run(const Options& o) {
+  const Sequence seq = read_replay_sequence(o);
+  const PipelineConfig config = config_for_sequence(seq, o.params);
+  const auto pipeline = make_pipeline(config);
+  if (o.cpu_clock) pipeline->set_clock(&thread_cpu_clock);
+  const Truth truth = read_truth(o.seq);
+  const auto foxglove = make_foxglove_output(o.extras, seq, truth.obstacles);
+  std::vector<MapVoxel> model;  // read before the replay: a bad file fails at once
+  if (!o.static_model.empty()) model = read_map_ply(o.static_model);
+  OutputFiles files = open_outputs(o);
+  std::unique_ptr<MapFrameLog> map_log;
+  if (truth.world != nullptr && o.map_checks)
+    map_log = std::make_unique<MapFrameLog>(*truth.world, pipeline->map(), o.out);
+
+  FrameLoop loop(o, seq, config, *pipeline, truth, foxglove.get(), files, map_log.get());
+  ReplayReport report;
+  report.n = o.max_frames >= 0 ? std::min(seq.frames.size(), static_cast<std::size_t>(o.max_frames))
+                               : seq.frames.size();
+  loop.run(report.n);
+  if (!o.quiet) std::fprintf(stderr, "\n");
+  if (foxglove) foxglove->close();
+  report.elapsed = wall_seconds() - loop.start_seconds();
+  const ReplayTally& t = loop.tally();
+  if (t.process_ms.empty()) {
+    throw ToolError(o.seq + ": none of the " + std::to_string(report.n) +
+                    " frames could be replayed (see the warnings above)");
+  }
+  render_top_view(loop.scene(t.last_stamp, "dynamap: final state of " + o.seq,
+                             std::to_string(report.n) + " frames, " +
+                                 std::to_string(t.dynamic_ids.size()) + " dynamic tracks"),
+                  join_path(o.out, "topview.png"));
+  report.map = write_final_map(pipeline->map(), config, t.last_pose, t.process_ms.size(), o.out,
+                               o.static_model.empty() ? nullptr : &model);
+  report.map_log = map_log.get();
+  print_summary(o, seq, config, *pipeline, t, report);
+  return t.skipped.total() > 0 ? kExitCompletedWithGaps : 0;
 }
 
 }  // namespace
