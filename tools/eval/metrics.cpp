@@ -162,6 +162,165 @@ std::map<int, std::size_t> first_frames(const Sequence& seq, const std::vector<T
   return first;
 }
 
+// Sums over all frames for the mean errors, and each ground-truth obstacle's last match.
+struct MatchState {
+  std::map<int, int> last_track_of_gt;  // gt id -> track id of its last match
+  double pos_sum = 0.0, vel_sum = 0.0, settled_vel_sum = 0.0;
+};
+
+// One frame's obstacles and dynamic track rows as the matching sees them.
+struct FrameSets {
+  std::vector<const ObstacleRecord*> gt, dont_care;  // counted / ignored obstacles
+  std::vector<const TrackRow*> dyn;                  // dynamic track rows
+};
+
+// Splits the frame's obstacles into counted ones (moving, visible enough, in the depth range)
+// and don't-care ones; collects the dynamic rows and counts those near any obstacle.
+FrameSets frame_sets(const SequenceFrame& frame, const std::vector<ObstacleRecord>& listed,
+                     const std::vector<TrackRow>& rows, const EvalOptions& opt, EvalResult& r) {
+  FrameSets s;
+  const Eigen::Matrix3d Rt = frame.pose.rotation.toRotationMatrix().transpose();
+  for (const auto& o : listed) {
+    const double depth = (Rt * (o.center - frame.pose.translation)).z();
+    const bool counted = o.velocity.norm() >= opt.moving_speed && o.visible >= opt.min_visible &&
+                         depth >= opt.min_depth && depth <= opt.max_depth;
+    (counted ? s.gt : s.dont_care).push_back(&o);
+  }
+  for (const auto& t : rows) {
+    if (!t.dynamic) continue;
+    s.dyn.push_back(&t);
+    const bool near = std::any_of(listed.begin(), listed.end(), [&](const ObstacleRecord& o) {
+      return top_dist(o.center, t.center) <= opt.precision_radius;
+    });
+    r.dynamic_rows_near_obstacle += near ? 1 : 0;
+  }
+  return s;
+}
+
+// Matching: keep last frame's correspondences inside the gate, then the cheapest one-to-one
+// assignment of the rest (CLEAR-MOT style). Returns gt index -> dyn index (-1: missed) and
+// marks the matched rows in track_used.
+std::vector<int> match_frame(const FrameSets& s, const std::map<int, int>& last_track_of_gt,
+                             const EvalOptions& opt, std::vector<bool>& track_used) {
+  const auto& gt = s.gt;
+  const auto& dyn = s.dyn;
+  std::vector<int> match(gt.size(), -1);
+  track_used.assign(dyn.size(), false);
+  for (std::size_t g = 0; g < gt.size(); ++g) {
+    const auto prev = last_track_of_gt.find(gt[g]->id);
+    if (prev == last_track_of_gt.end()) continue;
+    for (std::size_t d = 0; d < dyn.size(); ++d) {
+      if (!track_used[d] && dyn[d]->id == prev->second &&
+          top_dist(gt[g]->center, dyn[d]->center) <= opt.gate) {
+        match[g] = static_cast<int>(d);
+        track_used[d] = true;
+      }
+    }
+  }
+  std::vector<std::size_t> free_gt, free_dyn;
+  for (std::size_t g = 0; g < gt.size(); ++g) {
+    if (match[g] < 0) free_gt.push_back(g);
+  }
+  for (std::size_t d = 0; d < dyn.size(); ++d) {
+    if (!track_used[d]) free_dyn.push_back(d);
+  }
+  std::vector<double> cost(free_gt.size() * free_dyn.size());
+  for (std::size_t a = 0; a < free_gt.size(); ++a) {
+    for (std::size_t b = 0; b < free_dyn.size(); ++b) {
+      const double d = top_dist(gt[free_gt[a]]->center, dyn[free_dyn[b]]->center);
+      cost[a * free_dyn.size() + b] = d <= opt.gate ? d : 1e6;
+    }
+  }
+  const auto assign = min_cost_assignment(cost, free_gt.size(), free_dyn.size(), 1e5);
+  for (std::size_t a = 0; a < free_gt.size(); ++a) {
+    if (assign[a] < 0) continue;
+    match[free_gt[a]] = static_cast<int>(free_dyn[static_cast<std::size_t>(assign[a])]);
+    track_used[free_dyn[static_cast<std::size_t>(assign[a])]] = true;
+  }
+  return match;
+}
+
+// Counts one frame's matches, misses, ID switches and false positives (unmatched dynamic rows
+// not near a don't-care obstacle).
+void score_frame(const FrameSets& s, const std::vector<int>& match,
+                 const std::vector<bool>& track_used, std::size_t frame_index,
+                 const std::map<int, std::size_t>& first_frame, const EvalOptions& opt,
+                 MatchState& m, EvalResult& r) {
+  r.gt_count += s.gt.size();
+  for (std::size_t g = 0; g < s.gt.size(); ++g) {
+    if (match[g] < 0) {
+      ++r.false_negatives;
+      continue;
+    }
+    const ObstacleRecord& o = *s.gt[g];
+    const TrackRow& t = *s.dyn[static_cast<std::size_t>(match[g])];
+    ++r.matched;
+    m.pos_sum += top_dist(o.center, t.center);
+    const double vel_error = (o.velocity.head<2>() - t.velocity.head<2>()).norm();
+    m.vel_sum += vel_error;
+    if (frame_index >= first_frame.at(t.id) + opt.settled_frames) {
+      ++r.matched_settled;
+      m.settled_vel_sum += vel_error;
+    }
+    const auto prev = m.last_track_of_gt.find(o.id);
+    if (prev != m.last_track_of_gt.end() && prev->second != t.id) ++r.id_switches;
+    m.last_track_of_gt[o.id] = t.id;
+  }
+  for (std::size_t d = 0; d < s.dyn.size(); ++d) {
+    if (track_used[d]) continue;
+    const bool ignored = std::any_of(s.dont_care.begin(), s.dont_care.end(), [&](const auto* o) {
+      return top_dist(o->center, s.dyn[d]->center) <= opt.gate;
+    });
+    if (!ignored) ++r.false_positives;
+  }
+}
+
+// Track id counts, rows at unknown stamps, and the rates from the sums (NaN when undefined).
+void finish_rates(const std::vector<TrackRow>& track_rows, const std::set<std::int64_t>& frame_keys,
+                  const MatchState& m, EvalResult& r) {
+  std::set<int> ids, dynamic_ids;
+  for (const auto& t : track_rows) {
+    ids.insert(t.id);
+    if (t.dynamic) dynamic_ids.insert(t.id);
+    if (t.dynamic) ++r.dynamic_track_rows;
+    if (frame_keys.count(stamp_key(t.stamp)) == 0) ++r.track_rows_unknown_stamp;
+  }
+  r.track_ids = ids.size();
+  r.dynamic_track_ids = dynamic_ids.size();
+  // Dynamic rows at stamps that are no frame were not visited above: count them as not near.
+  r.position_error = r.matched > 0 ? m.pos_sum / r.matched : kNaN;
+  r.velocity_error = r.matched > 0 ? m.vel_sum / r.matched : kNaN;
+  r.velocity_error_settled = r.matched_settled > 0 ? m.settled_vel_sum / r.matched_settled : kNaN;
+  r.recall = r.gt_count > 0 ? static_cast<double>(r.matched) / r.gt_count : kNaN;
+  r.precision = r.dynamic_track_rows > 0
+                    ? static_cast<double>(r.dynamic_rows_near_obstacle) / r.dynamic_track_rows
+                    : kNaN;
+  r.mota = r.gt_count > 0
+               ? 1.0 - static_cast<double>(r.false_negatives + r.false_positives + r.id_switches) /
+                           r.gt_count
+               : kNaN;
+}
+
+// Prediction failure ratios (chosen and linear) against the static world, when both exist.
+void score_predictions(const std::string& seq_dir, const std::string& result_dir,
+                       const std::vector<TrackRow>& track_rows, const EvalOptions& opt,
+                       EvalResult& r) {
+  const std::string world_path = join_path(seq_dir, "static_world.txt");
+  const std::string pred_path = join_path(result_dir, "predictions.csv");
+  const std::string lin_path = join_path(result_dir, "predictions_linear.csv");
+  if (!file_exists(world_path)) {
+    r.notes.push_back(world_path + " missing: no prediction failure ratio");
+    return;
+  }
+  const StaticWorld world = read_static_world(world_path);
+  if (file_exists(pred_path)) {
+    r.markov = evaluate_predictions(pred_path, world, track_rows, opt);
+  } else {
+    r.notes.push_back(pred_path + " missing: no prediction failure ratio");
+  }
+  if (file_exists(lin_path)) r.linear = evaluate_predictions(lin_path, world, track_rows, opt);
+}
+
 }  // namespace
 
 EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
@@ -184,8 +343,7 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
 
   const std::map<int, std::size_t> first_frame = first_frames(seq, track_rows);
   std::set<std::int64_t> frame_keys;
-  std::map<int, int> last_track_of_gt;  // gt id -> track id of its last match
-  double pos_sum = 0.0, vel_sum = 0.0, settled_vel_sum = 0.0;
+  MatchState m;
   r.settled_frames = opt.settled_frames;
   static const std::vector<ObstacleRecord> kNoObstacles;
   static const std::vector<TrackRow> kNoTracks;
@@ -197,109 +355,12 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
     const auto& listed = oit != obstacles.end() ? oit->second : kNoObstacles;
     const auto tit = tracks.find(key);
     const auto& rows = tit != tracks.end() ? tit->second : kNoTracks;
-
-    const Eigen::Matrix3d Rt = frame.pose.rotation.toRotationMatrix().transpose();
-    std::vector<const ObstacleRecord*> gt, dont_care;
-    for (const auto& o : listed) {
-      const double depth = (Rt * (o.center - frame.pose.translation)).z();
-      const bool counted = o.velocity.norm() >= opt.moving_speed && o.visible >= opt.min_visible &&
-                           depth >= opt.min_depth && depth <= opt.max_depth;
-      (counted ? gt : dont_care).push_back(&o);
-    }
-    std::vector<const TrackRow*> dyn;
-    for (const auto& t : rows) {
-      if (!t.dynamic) continue;
-      dyn.push_back(&t);
-      const bool near = std::any_of(listed.begin(), listed.end(), [&](const ObstacleRecord& o) {
-        return top_dist(o.center, t.center) <= opt.precision_radius;
-      });
-      r.dynamic_rows_near_obstacle += near ? 1 : 0;
-    }
-
-    // Matching: keep last frame's correspondences inside the gate, then the cheapest
-    // one-to-one assignment of the rest (CLEAR-MOT style).
-    std::vector<int> match(gt.size(), -1);  // gt index -> dyn index
-    std::vector<bool> track_used(dyn.size(), false);
-    for (std::size_t g = 0; g < gt.size(); ++g) {
-      const auto prev = last_track_of_gt.find(gt[g]->id);
-      if (prev == last_track_of_gt.end()) continue;
-      for (std::size_t d = 0; d < dyn.size(); ++d) {
-        if (!track_used[d] && dyn[d]->id == prev->second &&
-            top_dist(gt[g]->center, dyn[d]->center) <= opt.gate) {
-          match[g] = static_cast<int>(d);
-          track_used[d] = true;
-        }
-      }
-    }
-    std::vector<std::size_t> free_gt, free_dyn;
-    for (std::size_t g = 0; g < gt.size(); ++g) {
-      if (match[g] < 0) free_gt.push_back(g);
-    }
-    for (std::size_t d = 0; d < dyn.size(); ++d) {
-      if (!track_used[d]) free_dyn.push_back(d);
-    }
-    std::vector<double> cost(free_gt.size() * free_dyn.size());
-    for (std::size_t a = 0; a < free_gt.size(); ++a) {
-      for (std::size_t b = 0; b < free_dyn.size(); ++b) {
-        const double d = top_dist(gt[free_gt[a]]->center, dyn[free_dyn[b]]->center);
-        cost[a * free_dyn.size() + b] = d <= opt.gate ? d : 1e6;
-      }
-    }
-    const auto assign = min_cost_assignment(cost, free_gt.size(), free_dyn.size(), 1e5);
-    for (std::size_t a = 0; a < free_gt.size(); ++a) {
-      if (assign[a] < 0) continue;
-      match[free_gt[a]] = static_cast<int>(free_dyn[static_cast<std::size_t>(assign[a])]);
-      track_used[free_dyn[static_cast<std::size_t>(assign[a])]] = true;
-    }
-
-    r.gt_count += gt.size();
-    for (std::size_t g = 0; g < gt.size(); ++g) {
-      if (match[g] < 0) {
-        ++r.false_negatives;
-        continue;
-      }
-      const TrackRow& t = *dyn[static_cast<std::size_t>(match[g])];
-      ++r.matched;
-      pos_sum += top_dist(gt[g]->center, t.center);
-      const double vel_error = (gt[g]->velocity.head<2>() - t.velocity.head<2>()).norm();
-      vel_sum += vel_error;
-      if (frame_index >= first_frame.at(t.id) + opt.settled_frames) {
-        ++r.matched_settled;
-        settled_vel_sum += vel_error;
-      }
-      const auto prev = last_track_of_gt.find(gt[g]->id);
-      if (prev != last_track_of_gt.end() && prev->second != t.id) ++r.id_switches;
-      last_track_of_gt[gt[g]->id] = t.id;
-    }
-    for (std::size_t d = 0; d < dyn.size(); ++d) {
-      if (track_used[d]) continue;
-      const bool ignored = std::any_of(dont_care.begin(), dont_care.end(), [&](const auto* o) {
-        return top_dist(o->center, dyn[d]->center) <= opt.gate;
-      });
-      if (!ignored) ++r.false_positives;
-    }
+    const FrameSets s = frame_sets(frame, listed, rows, opt, r);
+    std::vector<bool> track_used;
+    const std::vector<int> match = match_frame(s, m.last_track_of_gt, opt, track_used);
+    score_frame(s, match, track_used, frame_index, first_frame, opt, m, r);
   }
-  std::set<int> ids, dynamic_ids;
-  for (const auto& t : track_rows) {
-    ids.insert(t.id);
-    if (t.dynamic) dynamic_ids.insert(t.id);
-    if (t.dynamic) ++r.dynamic_track_rows;
-    if (frame_keys.count(stamp_key(t.stamp)) == 0) ++r.track_rows_unknown_stamp;
-  }
-  r.track_ids = ids.size();
-  r.dynamic_track_ids = dynamic_ids.size();
-  // Dynamic rows at stamps that are no frame were not visited above: count them as not near.
-  r.position_error = r.matched > 0 ? pos_sum / r.matched : kNaN;
-  r.velocity_error = r.matched > 0 ? vel_sum / r.matched : kNaN;
-  r.velocity_error_settled = r.matched_settled > 0 ? settled_vel_sum / r.matched_settled : kNaN;
-  r.recall = r.gt_count > 0 ? static_cast<double>(r.matched) / r.gt_count : kNaN;
-  r.precision = r.dynamic_track_rows > 0
-                    ? static_cast<double>(r.dynamic_rows_near_obstacle) / r.dynamic_track_rows
-                    : kNaN;
-  r.mota = r.gt_count > 0
-               ? 1.0 - static_cast<double>(r.false_negatives + r.false_positives + r.id_switches) /
-                           r.gt_count
-               : kNaN;
+  finish_rates(track_rows, frame_keys, m, r);
   if (r.track_rows_unknown_stamp > 0) {
     r.notes.push_back(std::to_string(r.track_rows_unknown_stamp) +
                       " tracks.csv rows have a stamp that is no frame of the sequence");
@@ -307,21 +368,7 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
   if (seq.images_without_pose > 0) {
     r.notes.push_back(std::to_string(seq.images_without_pose) + " images without a pose skipped");
   }
-
-  const std::string world_path = join_path(seq_dir, "static_world.txt");
-  const std::string pred_path = join_path(result_dir, "predictions.csv");
-  const std::string lin_path = join_path(result_dir, "predictions_linear.csv");
-  if (!file_exists(world_path)) {
-    r.notes.push_back(world_path + " missing: no prediction failure ratio");
-  } else {
-    const StaticWorld world = read_static_world(world_path);
-    if (file_exists(pred_path)) {
-      r.markov = evaluate_predictions(pred_path, world, track_rows, opt);
-    } else {
-      r.notes.push_back(pred_path + " missing: no prediction failure ratio");
-    }
-    if (file_exists(lin_path)) r.linear = evaluate_predictions(lin_path, world, track_rows, opt);
-  }
+  score_predictions(seq_dir, result_dir, track_rows, opt, r);
   return r;
 }
 
