@@ -31,6 +31,54 @@ std::string str_arg(int argc, char** argv, int* i) {
   return argv[++*i];
 }
 
+void print_help() {
+  std::printf(
+      "%s"
+      "  Draws tracking results on the depth images of SEQ: colour-mapped depth,\n"
+      "  detections (RESULT_DIR/detections.csv, when present), every track of\n"
+      "  RESULT_DIR/tracks.csv projected into the image (dynamic red, static blue),\n"
+      "  reference people (--reference FILE, default SEQ/obstacles.txt) dashed green,\n"
+      "  MISSED people (no dynamic track within 1 m) orange and FALSE DYN tracks (no\n"
+      "  reference obstacle within 1 m) magenta. Writes DIR/frame_NNNNN.png every N\n"
+      "  sequence frames (default 30; 0: none) and DIR/contact_sheet.png (about 36\n"
+      "  thumbnails, C columns, default 6). DIR defaults to RESULT_DIR/overlay.\n"
+      "  See docs/tools.md.\n",
+      kUsage);
+}
+
+// What was written and what the totals say, on stderr.
+void print_summary(const overlay::RunOptions& o, const overlay::RunSummary& s) {
+  std::fprintf(
+      stderr,
+      "dynamap-overlay: %s + %s: %zu frames, %zu pictures + contact sheet (%zu tiles) in %s\n",
+      o.seq.c_str(), o.result_dir.c_str(), s.frames, s.pictures, s.tiles,
+      (o.out_dir.empty() ? join_path(o.result_dir, "overlay") : o.out_dir).c_str());
+  std::fprintf(stderr,
+               "  depth missing: %zu listed files absent in the %zu frames; %zu of the frames "
+               "drawn had no readable depth (drawn as \"depth missing\")\n",
+               s.depth_files_missing, s.frames, s.depth_missing);
+  if (s.has_reference) {
+    std::fprintf(stderr,
+                 "  reference %s: %zu person-frames, %zu missed; %zu dynamic track-frames, "
+                 "%zu false dynamic\n",
+                 s.reference_path.c_str(), s.reference_people, s.missed, s.dynamic_tracks,
+                 s.false_dynamic);
+  } else {
+    std::fprintf(stderr,
+                 "  no reference (no --reference, no SEQ/obstacles.txt): %zu dynamic "
+                 "track-frames, nothing judged\n",
+                 s.dynamic_tracks);
+  }
+  if (!s.has_detections)
+    std::fprintf(stderr, "  no detections.csv in %s: detections not drawn\n", o.result_dir.c_str());
+  if (s.frames_after_result > 0) {
+    std::fprintf(stderr,
+                 "  note: %zu frames are later than the result's last stamp (replay stopped "
+                 "early?); use --max-frames\n",
+                 s.frames_after_result);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -52,18 +100,7 @@ int main(int argc, char** argv) {
       } else if (a == "--quiet") {
         quiet = true;
       } else if (a == "-h" || a == "--help") {
-        std::printf(
-            "%s"
-            "  Draws tracking results on the depth images of SEQ: colour-mapped depth,\n"
-            "  detections (RESULT_DIR/detections.csv, when present), every track of\n"
-            "  RESULT_DIR/tracks.csv projected into the image (dynamic red, static blue),\n"
-            "  reference people (--reference FILE, default SEQ/obstacles.txt) dashed green,\n"
-            "  MISSED people (no dynamic track within 1 m) orange and FALSE DYN tracks (no\n"
-            "  reference obstacle within 1 m) magenta. Writes DIR/frame_NNNNN.png every N\n"
-            "  sequence frames (default 30; 0: none) and DIR/contact_sheet.png (about 36\n"
-            "  thumbnails, C columns, default 6). DIR defaults to RESULT_DIR/overlay.\n"
-            "  See docs/tools.md.\n",
-            kUsage);
+        print_help();
         return 0;
       } else if (!a.empty() && a[0] == '-') {
         throw ToolError("unknown option '" + a + "'");
@@ -81,36 +118,7 @@ int main(int argc, char** argv) {
     }
     if (!quiet) o.progress = [](const std::string& line) { std::cerr << "  " << line << "\n"; };
     const overlay::RunSummary s = overlay::run_overlay(o);
-    std::fprintf(
-        stderr,
-        "dynamap-overlay: %s + %s: %zu frames, %zu pictures + contact sheet (%zu tiles) in %s\n",
-        o.seq.c_str(), o.result_dir.c_str(), s.frames, s.pictures, s.tiles,
-        (o.out_dir.empty() ? join_path(o.result_dir, "overlay") : o.out_dir).c_str());
-    std::fprintf(stderr,
-                 "  depth missing: %zu listed files absent in the %zu frames; %zu of the frames "
-                 "drawn had no readable depth (drawn as \"depth missing\")\n",
-                 s.depth_files_missing, s.frames, s.depth_missing);
-    if (s.has_reference) {
-      std::fprintf(stderr,
-                   "  reference %s: %zu person-frames, %zu missed; %zu dynamic track-frames, "
-                   "%zu false dynamic\n",
-                   s.reference_path.c_str(), s.reference_people, s.missed, s.dynamic_tracks,
-                   s.false_dynamic);
-    } else {
-      std::fprintf(stderr,
-                   "  no reference (no --reference, no SEQ/obstacles.txt): %zu dynamic "
-                   "track-frames, nothing judged\n",
-                   s.dynamic_tracks);
-    }
-    if (!s.has_detections)
-      std::fprintf(stderr, "  no detections.csv in %s: detections not drawn\n",
-                   o.result_dir.c_str());
-    if (s.frames_after_result > 0) {
-      std::fprintf(stderr,
-                   "  note: %zu frames are later than the result's last stamp (replay stopped "
-                   "early?); use --max-frames\n",
-                   s.frames_after_result);
-    }
+    print_summary(o, s);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dynamap-overlay: error: %s\n", e.what());

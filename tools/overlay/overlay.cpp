@@ -391,13 +391,28 @@ std::string speed_text(const Eigen::Vector3d& v) {
   return buf;
 }
 
-// The image with every overlay, at st.scale with its top-left at (st.x, st.y).
-void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const CameraModel& cam,
-               const OverlayOptions& o, const Style& st) {
-  const double w = cam.width * st.scale, h = cam.height * st.scale;
-  cairo_save(cr);
-  cairo_rectangle(cr, st.x, st.y, w, h);
-  cairo_clip(cr);
+// Pixel centres are at integer projection coordinates; picture pixels cover [u, u+1).
+double view_x(const Style& st, double u) {
+  return st.x + (u + 0.5) * st.scale;
+}
+double view_y(const Style& st, double v) {
+  return st.y + (v + 0.5) * st.scale;
+}
+
+// A box's label plate: drawn last, over every line, in priority order.
+struct Plate {
+  double x, top;  // preferred top-left of the plate
+  std::string text;
+  Rgb colour;
+  bool bold;
+  int priority;  // placed in this order: missed, false dynamic, dynamic, static
+};
+constexpr double kPlateFont = 13;
+constexpr double kPlateHeight = kPlateFont + 5;
+
+// The depth image scaled into the view ("depth missing" written over it when it was not read).
+void draw_depth(cairo_t* cr, const OverlayFrame& f, const CameraModel& cam, const OverlayOptions& o,
+                const Style& st, double w, double h) {
   {
     Surface img = depth_surface(f, cam, o);
     cairo_save(cr);
@@ -413,32 +428,29 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
     set(cr, {0.85, 0.85, 0.85});
     text(cr, st.x + 0.5 * w, st.y + 0.88 * h, "depth missing", st.labels ? 28 : 14, true, 0.5);
   }
-  // Pixel centres are at integer projection coordinates; picture pixels cover [u, u+1).
-  auto px = [&](double u) { return st.x + (u + 0.5) * st.scale; };
-  auto py = [&](double v) { return st.y + (v + 0.5) * st.scale; };
-  const double lw = st.line;
-  const double font = 13;
-  struct Label {
-    double x, top;  // preferred top-left of the plate
-    std::string text;
-    Rgb colour;
-    bool bold;
-    int priority;  // placed in this order: missed, false dynamic, dynamic, static
-  };
-  std::vector<Label> labels;  // drawn last, over every line
-  const double plate_h = font + 5;
+}
 
+// The detector's image boxes (inclusive pixel bounds: the rectangle covers pixels u0..u1).
+void draw_detection_boxes(cairo_t* cr, const OverlayFrame& f, const Style& st) {
   for (const DetectionRow& d : f.detections) {
-    // Inclusive pixel bounds: the rectangle covers pixels u0..u1.
     stroke_rect(cr, st.x + d.u0 * st.scale, st.y + d.v0 * st.scale, st.x + (d.u1 + 1) * st.scale,
-                st.y + (d.v1 + 1) * st.scale, kDetection, 1.0 * lw, 0, 0.5);
+                st.y + (d.v1 + 1) * st.scale, kDetection, 1.0 * st.line, 0, 0.5);
   }
+}
+
+// Reference people counted (solid) and listed but not counted (faint, dashed); the missed
+// ones are drawn later, over the tracks.
+void draw_reference_boxes(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a,
+                          const CameraModel& cam, const Style& st) {
+  const double lw = st.line;
   for (std::size_t i = 0; i < f.reference.size(); ++i) {
     const ObstacleRecord& r = f.reference[i];
     const ReferenceKind kind = i < a.reference.size() ? a.reference[i] : ReferenceKind::kOther;
     if (kind == ReferenceKind::kOther && r.visible <= 0.0) continue;
     PixelRect pr;
     if (!project_box(cam, f.pose, r.center, r.size, &pr)) continue;
+    const double x0 = view_x(st, pr.u0), y0 = view_y(st, pr.v0);
+    const double x1 = view_x(st, pr.u1), y1 = view_y(st, pr.v1);
     if (kind == ReferenceKind::kOther) {
       // Listed but not counted (slow, mostly hidden or out of range): faint, never "missed".
       cairo_save(cr);
@@ -446,14 +458,20 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
       cairo_set_dash(cr, d, 2, 0);
       set(cr, kReference, 0.6);
       cairo_set_line_width(cr, 1.2 * lw);
-      cairo_rectangle(cr, px(pr.u0), py(pr.v0), px(pr.u1) - px(pr.u0), py(pr.v1) - py(pr.v0));
+      cairo_rectangle(cr, x0, y0, x1 - x0, y1 - y0);
       cairo_stroke(cr);
       cairo_restore(cr);
     } else if (kind == ReferenceKind::kPerson) {
-      stroke_rect(cr, px(pr.u0), py(pr.v0), px(pr.u1), py(pr.v1), kReference, 2.0 * lw, 7 * lw);
+      stroke_rect(cr, x0, y0, x1, y1, kReference, 2.0 * lw, 7 * lw);
     }
   }
-  // Static tracks first and light, so the dynamic ones stay on top and catch the eye.
+}
+
+// Track boxes, static ones first and light, so the dynamic ones stay on top and catch the eye;
+// their labels go to `plates`.
+void draw_track_boxes(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a,
+                      const CameraModel& cam, const Style& st, std::vector<Plate>& plates) {
+  const double lw = st.line;
   for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t i = 0; i < f.tracks.size(); ++i) {
       const TrackRow& t = f.tracks[i];
@@ -463,37 +481,64 @@ void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const
       const bool false_dyn = i < a.false_dynamic.size() && a.false_dynamic[i];
       const Rgb c = false_dyn ? kFalse : t.dynamic ? kDynamic : kStatic;
       const double width = (false_dyn ? 3.5 : t.dynamic ? 2.5 : 1.4) * lw;
-      stroke_rect(cr, px(pr.u0), py(pr.v0), px(pr.u1), py(pr.v1), c, width, 0,
-                  t.dynamic ? 0.75 : 0.45);
+      stroke_rect(cr, view_x(st, pr.u0), view_y(st, pr.v0), view_x(st, pr.u1), view_y(st, pr.v1), c,
+                  width, 0, t.dynamic ? 0.75 : 0.45);
       std::string label = std::to_string(t.id);
       if (t.dynamic) label += "  " + speed_text(t.velocity);
       if (false_dyn) label = "FALSE DYN " + label;
       // Above the box; inside its top when the box starts at the image's top edge.
-      double top = py(pr.v0) - plate_h - 1;
-      if (top < st.y) top = std::max(py(pr.v0), st.y) + 2;
-      labels.push_back({px(pr.u0), top, label, c, t.dynamic, false_dyn ? 1 : t.dynamic ? 2 : 3});
+      double top = view_y(st, pr.v0) - kPlateHeight - 1;
+      if (top < st.y) top = std::max(view_y(st, pr.v0), st.y) + 2;
+      plates.push_back({view_x(st, pr.u0), top, label, c, t.dynamic,
+                        false_dyn   ? 1
+                        : t.dynamic ? 2
+                                    : 3});
     }
   }
-  if (st.labels) draw_velocity_arrows(cr, f, a, cam, st);
-  // Missed people last: they matter most and must not hide under a track's box.
+}
+
+// Missed people: they matter most and must not hide under a track's box; their labels go to
+// `plates`. h: the view's height.
+void draw_missed_boxes(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a,
+                       const CameraModel& cam, const Style& st, double h,
+                       std::vector<Plate>& plates) {
+  const double lw = st.line;
   for (std::size_t i = 0; i < f.reference.size() && i < a.reference.size(); ++i) {
     if (a.reference[i] != ReferenceKind::kMissed) continue;
     const ObstacleRecord& r = f.reference[i];
     PixelRect pr;
     if (!project_box(cam, f.pose, r.center, r.size, &pr)) continue;
-    stroke_rect(cr, px(pr.u0), py(pr.v0), px(pr.u1), py(pr.v1), kMissed, 4.0 * lw, 10 * lw);
+    stroke_rect(cr, view_x(st, pr.u0), view_y(st, pr.v0), view_x(st, pr.u1), view_y(st, pr.v1),
+                kMissed, 4.0 * lw, 10 * lw);
     // Below the box (track labels go above); inside its bottom when it reaches the image's.
-    double top = py(pr.v1) + 3;
-    if (top + plate_h > st.y + h) top = std::min(py(pr.v1), st.y + h) - plate_h - 4;
-    labels.push_back({px(pr.u0), top,
+    double top = view_y(st, pr.v1) + 3;
+    if (top + kPlateHeight > st.y + h)
+      top = std::min(view_y(st, pr.v1), st.y + h) - kPlateHeight - 4;
+    plates.push_back({view_x(st, pr.u0), top,
                       "MISSED ref " + std::to_string(r.id) + "  " + speed_text(r.velocity), kMissed,
                       true, 0});
   }
+}
+
+// The image with every overlay, at st.scale with its top-left at (st.x, st.y).
+void draw_view(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const CameraModel& cam,
+               const OverlayOptions& o, const Style& st) {
+  const double w = cam.width * st.scale, h = cam.height * st.scale;
+  cairo_save(cr);
+  cairo_rectangle(cr, st.x, st.y, w, h);
+  cairo_clip(cr);
+  draw_depth(cr, f, cam, o, st, w, h);
+  std::vector<Plate> plates;  // drawn last, over every line
+  draw_detection_boxes(cr, f, st);
+  draw_reference_boxes(cr, f, a, cam, st);
+  draw_track_boxes(cr, f, a, cam, st, plates);
+  if (st.labels) draw_velocity_arrows(cr, f, a, cam, st);
+  draw_missed_boxes(cr, f, a, cam, st, h, plates);
   if (st.labels) {
-    std::stable_sort(labels.begin(), labels.end(),
-                     [](const Label& x, const Label& y) { return x.priority < y.priority; });
+    std::stable_sort(plates.begin(), plates.end(),
+                     [](const Plate& x, const Plate& y) { return x.priority < y.priority; });
     LabelPlacer placer(cr, st.x, st.y, st.x + w, st.y + h);
-    for (const Label& l : labels) placer.place(l.x, l.top, l.text, l.colour, font, l.bold);
+    for (const Plate& l : plates) placer.place(l.x, l.top, l.text, l.colour, kPlateFont, l.bold);
   }
   cairo_restore(cr);
 }
@@ -698,6 +743,81 @@ void render_overlay_frame(const OverlayFrame& f, const CameraModel& cam, const O
   write_png(s.get(), png_path);
 }
 
+// The sheet's legend on one line (short labels: the sheet is one README-wide picture), then a
+// near -> far colour bar with a few ticks, filling what is left of the line.
+void draw_sheet_legend(cairo_t* cr, const std::vector<OverlayFrame>& tiles, const OverlayOptions& o,
+                       int margin, int width) {
+  bool any_ref = false, any_det = false;
+  for (const auto& t : tiles) {
+    any_ref = any_ref || t.has_reference;
+    any_det = any_det || !t.detections.empty();
+  }
+  double x = margin;
+  const double ly = 70;
+  for (const LegendItem& item : legend_items(any_ref, any_det, false)) {
+    std::string label = item.label.substr(0, item.label.find(':'));
+    if (label == "reference, not counted") label = "ref. not counted";
+    if (label == "reference person (counted)") label = "reference person";
+    if (label == "detection (image box)") label = "detection";
+    legend_swatch(cr, x, ly, item.colour, item.swatch);
+    set(cr, kText);
+    x = text(cr, x + 30, ly, label, 11.5) + 14;
+  }
+  const double bar_x = x + 4, bar_w = std::max(60.0, width - margin - 40 - bar_x), bar_h = 10;
+  if (bar_x + bar_w > width) return;
+  for (int i = 0; i < static_cast<int>(bar_w); ++i) {
+    const double m = o.near_m * std::pow(o.far_m / o.near_m, (i + 0.5) / bar_w);
+    const Rgb8 c = depth_colour(m, o.near_m, o.far_m);
+    cairo_set_source_rgb(cr, c.r / 255.0, c.g / 255.0, c.b / 255.0);
+    cairo_rectangle(cr, bar_x + i, ly - 16, 1.0, bar_h);
+    cairo_fill(cr);
+  }
+  set(cr, kText);
+  for (double m : {0.5, 1.0, 2.0, 4.0, 8.0}) {
+    if (m < o.near_m || m > o.far_m) continue;
+    const double xx = bar_x + bar_w * std::log(m / o.near_m) / std::log(o.far_m / o.near_m);
+    char buf[16];
+    std::snprintf(buf, sizeof(buf), "%g", m);
+    text(cr, std::min(xx, bar_x + bar_w - 4.0), ly + 6, buf, 10, false, 0.5);
+  }
+  text(cr, bar_x + bar_w + 6, ly - 7, "m", 11);
+}
+
+// A frame around a tile with a missed person (orange) or a false dynamic track (magenta, inside
+// the orange one): the sheet's problem frames show from across the room. Then the caption:
+// "#index" left, the counts (or the dynamic tracks without a reference) right.
+void draw_tile_marks(cairo_t* cr, const OverlayFrame& f, const FrameAnalysis& a, const Style& st,
+                     int tile_w, int tile_h) {
+  double inset = 1.5;
+  for (const auto& [bad, colour] :
+       {std::pair{a.missed > 0, kMissed}, {a.false_dynamic_count > 0, kFalse}}) {
+    if (!bad) continue;
+    set(cr, colour);
+    cairo_set_line_width(cr, 3.0);
+    cairo_rectangle(cr, st.x + inset, st.y + inset, tile_w - 2 * inset, tile_h - 2 * inset);
+    cairo_stroke(cr);
+    inset += 3.0;
+  }
+  const double cy = st.y + tile_h + 13;
+  set(cr, kText);
+  text(cr, st.x + 2, cy, "#" + std::to_string(f.index), 11.5, true);
+  if (f.has_reference || f.after_result) {
+    std::vector<Run> rs = count_runs(f, a, false);
+    for (auto& r : rs) r.s = r.s.substr(r.s.find_first_not_of(' '));
+    // Right-aligned: "missed N  false dyn M".
+    double w = 0;
+    for (std::size_t i = 0; i < rs.size(); ++i) {
+      if (i > 0) rs[i].s = "  " + rs[i].s;
+      w += text_width(cr, rs[i].s, 11, rs[i].bold);
+    }
+    runs(cr, st.x + tile_w - 2 - w, cy, rs, 11);
+  } else {
+    std::string dyn = "dynamic " + std::to_string(a.dynamic_tracks);
+    set(cr, kText);
+    text(cr, st.x + tile_w - 2, cy, dyn, 11, false, 1.0);
+  }
+}
+
 void render_contact_sheet(const std::vector<OverlayFrame>& tiles, const CameraModel& cam,
                           const OverlayOptions& o, const std::string& title,
                           const std::string& summary, const std::string& png_path, int columns) {
@@ -707,8 +827,7 @@ void render_contact_sheet(const std::vector<OverlayFrame>& tiles, const CameraMo
   const int gap = kTileGap, margin = kSheetMargin, tile_caption = kTileCaption;
   const int header_h = kSheetHeader;
   const PictureSize size = contact_sheet_size(cam, tiles.size(), columns);
-  const int width = size.width, height = size.height;
-  Surface s = make_surface(width, height);
+  Surface s = make_surface(size.width, size.height);
   Context ctx(cairo_create(s.get()), cairo_destroy);
   cairo_t* cr = ctx.get();
   cairo_set_source_rgb(cr, 1, 1, 1);
@@ -717,86 +836,20 @@ void render_contact_sheet(const std::vector<OverlayFrame>& tiles, const CameraMo
   set(cr, kText);
   text(cr, margin, 26, title, 19, true);
   text(cr, margin, 46, summary, 12.5);
-
-  // Legend on one line, then a horizontal colour bar.
-  bool any_ref = false, any_det = false;
-  for (const auto& t : tiles) {
-    any_ref = any_ref || t.has_reference;
-    any_det = any_det || !t.detections.empty();
-  }
-  double x = margin;
-  const double ly = 70;
-  for (const LegendItem& item : legend_items(any_ref, any_det, false)) {
-    // Short labels: the sheet is one README-wide picture.
-    std::string label = item.label.substr(0, item.label.find(':'));
-    if (label == "reference, not counted") label = "ref. not counted";
-    if (label == "reference person (counted)") label = "reference person";
-    if (label == "detection (image box)") label = "detection";
-    legend_swatch(cr, x, ly, item.colour, item.swatch);
-    set(cr, kText);
-    x = text(cr, x + 30, ly, label, 11.5) + 14;
-  }
-  // Colour bar: near -> far, left to right, with a few ticks, filling what is left of the line.
-  const double bar_x = x + 4, bar_w = std::max(60.0, width - margin - 40 - bar_x), bar_h = 10;
-  if (bar_x + bar_w <= width) {
-    for (int i = 0; i < static_cast<int>(bar_w); ++i) {
-      const double m = o.near_m * std::pow(o.far_m / o.near_m, (i + 0.5) / bar_w);
-      const Rgb8 c = depth_colour(m, o.near_m, o.far_m);
-      cairo_set_source_rgb(cr, c.r / 255.0, c.g / 255.0, c.b / 255.0);
-      cairo_rectangle(cr, bar_x + i, ly - 16, 1.0, bar_h);
-      cairo_fill(cr);
-    }
-    set(cr, kText);
-    for (double m : {0.5, 1.0, 2.0, 4.0, 8.0}) {
-      if (m < o.near_m || m > o.far_m) continue;
-      const double xx = bar_x + bar_w * std::log(m / o.near_m) / std::log(o.far_m / o.near_m);
-      char buf[16];
-      std::snprintf(buf, sizeof(buf), "%g", m);
-      text(cr, std::min(xx, bar_x + bar_w - 4.0), ly + 6, buf, 10, false, 0.5);
-    }
-    text(cr, bar_x + bar_w + 6, ly - 7, "m", 11);
-  }
+  draw_sheet_legend(cr, tiles, o, margin, size.width);
 
   for (std::size_t k = 0; k < tiles.size(); ++k) {
     const OverlayFrame& f = tiles[k];
     const FrameAnalysis a = analyse_frame(f, o);
+    const std::size_t row = k / columns, column = k % columns;  // row-major tiles
     Style st;
     st.scale = scale;
-    st.x = margin + static_cast<double>(k % columns) * (tile_w + gap);
-    st.y = header_h + static_cast<double>(k / columns) * (tile_h + tile_caption + gap);
+    st.x = margin + static_cast<double>(column) * (tile_w + gap);
+    st.y = header_h + static_cast<double>(row) * (tile_h + tile_caption + gap);
     st.line = 0.8;
     st.labels = false;
     draw_view(cr, f, a, cam, o, st);
-    // A frame around tiles with a missed person (orange) or a false dynamic track (magenta,
-    // inside the orange one): the sheet's problem frames show from across the room.
-    double inset = 1.5;
-    for (const auto& [bad, colour] :
-         {std::pair{a.missed > 0, kMissed}, {a.false_dynamic_count > 0, kFalse}}) {
-      if (!bad) continue;
-      set(cr, colour);
-      cairo_set_line_width(cr, 3.0);
-      cairo_rectangle(cr, st.x + inset, st.y + inset, tile_w - 2 * inset, tile_h - 2 * inset);
-      cairo_stroke(cr);
-      inset += 3.0;
-    }
-    const double cy = st.y + tile_h + 13;
-    set(cr, kText);
-    text(cr, st.x + 2, cy, "#" + std::to_string(f.index), 11.5, true);
-    if (f.has_reference || f.after_result) {
-      std::vector<Run> rs = count_runs(f, a, false);
-      for (auto& r : rs) r.s = r.s.substr(r.s.find_first_not_of(' '));
-      // Right-aligned: "missed N  false dyn M".
-      double w = 0;
-      for (std::size_t i = 0; i < rs.size(); ++i) {
-        if (i > 0) rs[i].s = "  " + rs[i].s;
-        w += text_width(cr, rs[i].s, 11, rs[i].bold);
-      }
-      runs(cr, st.x + tile_w - 2 - w, cy, rs, 11);
-    } else {
-      std::string dyn = "dynamic " + std::to_string(a.dynamic_tracks);
-      set(cr, kText);
-      text(cr, st.x + tile_w - 2, cy, dyn, 11, false, 1.0);
-    }
+    draw_tile_marks(cr, f, a, st, tile_w, tile_h);
   }
   write_png(s.get(), png_path);
 }
@@ -831,97 +884,108 @@ std::string percent(std::size_t part, std::size_t whole) {
   return buf;
 }
 
-}  // namespace
+void say(const RunOptions& o, const std::string& line) {
+  if (o.progress) o.progress(line);
+}
 
-RunSummary run_overlay(const RunOptions& o) {
-  auto say = [&](const std::string& line) {
-    if (o.progress) o.progress(line);
-  };
-  RunSummary sum;
-  const Sequence seq = read_sequence(o.seq);
-  if (seq.frames.empty()) throw ToolError(o.seq + ": no depth image has a pose; nothing to draw");
-  const CameraModel& cam = seq.camera;
-  const std::size_t n = o.max_frames >= 0
-                            ? std::min(seq.frames.size(), static_cast<std::size_t>(o.max_frames))
-                            : seq.frames.size();
-  if (n == 0) throw ToolError("--max-frames 0: nothing to draw");
-  sum.frames = n;
-
-  const auto tracks = by_stamp(read_tracks_csv(join_path(o.result_dir, "tracks.csv")));
+// The result and reference rows by stamp, and the last stamp the replay reached.
+struct RunInputs {
+  std::unordered_map<std::int64_t, std::vector<TrackRow>> tracks;
+  std::unordered_map<std::int64_t, std::vector<DetectionRow>> detections;
+  std::unordered_map<std::int64_t, std::vector<ObstacleRecord>> reference;
   std::int64_t last_result = std::numeric_limits<std::int64_t>::min();
-  for (const auto& kv : tracks) last_result = std::max(last_result, kv.first);
+};
 
-  // timing.csv has a row for every frame the replay processed, even one without any track, so
-  // it tells best where a replay stopped.
+// tracks.csv, timing.csv (it has a row for every frame the replay processed, even one without
+// any track, so it tells best where a replay stopped), detections.csv when present and the
+// reference (--reference, else SEQ/obstacles.txt when it exists).
+RunInputs read_inputs(const RunOptions& o, RunSummary& sum) {
+  RunInputs in;
+  in.tracks = by_stamp(read_tracks_csv(join_path(o.result_dir, "tracks.csv")));
+  for (const auto& kv : in.tracks) in.last_result = std::max(in.last_result, kv.first);
   const std::string timing_path = join_path(o.result_dir, "timing.csv");
   if (file_exists(timing_path)) {
     const std::vector<std::string> lines = read_lines(timing_path);
     for (std::size_t i = 1; i < lines.size(); ++i) {
       if (strip_comment(lines[i]).empty()) continue;
       const auto fields = split_csv(lines[i]);
-      last_result =
-          std::max(last_result, stamp_key(parse_double(fields[0], {timing_path, i + 1}, "stamp")));
+      in.last_result = std::max(in.last_result,
+                                stamp_key(parse_double(fields[0], {timing_path, i + 1}, "stamp")));
     }
   }
-
-  std::unordered_map<std::int64_t, std::vector<DetectionRow>> detections;
   const std::string det_path = join_path(o.result_dir, "detections.csv");
   if (file_exists(det_path)) {
     sum.has_detections = true;
-    detections = by_stamp(read_detections_csv(det_path));
-    for (const auto& kv : detections) last_result = std::max(last_result, kv.first);
+    in.detections = by_stamp(read_detections_csv(det_path));
+    for (const auto& kv : in.detections) in.last_result = std::max(in.last_result, kv.first);
   }
-
-  std::unordered_map<std::int64_t, std::vector<ObstacleRecord>> reference;
   sum.reference_path = o.reference;
   if (sum.reference_path.empty() && file_exists(join_path(o.seq, "obstacles.txt"))) {
     sum.reference_path = join_path(o.seq, "obstacles.txt");
   }
   if (!sum.reference_path.empty()) {
     sum.has_reference = true;
-    reference = by_stamp(read_obstacles(sum.reference_path));
+    in.reference = by_stamp(read_obstacles(sum.reference_path));
   }
+  return in;
+}
 
-  const std::string out_dir = o.out_dir.empty() ? join_path(o.result_dir, "overlay") : o.out_dir;
-  make_directories(out_dir, "cannot create the output directory");
+// The frames of the run: their rows (cheap: used for the totals over every frame), and with the
+// depth image for the pictures (a depth image that cannot be read is counted once and named).
+class FrameSource {
+ public:
+  FrameSource(const Sequence& seq, const RunInputs& in, const RunOptions& o, std::size_t n,
+              RunSummary& sum)
+      : seq_(seq), in_(in), o_(o), sum_(sum), depth_counted_(n, false) {}
 
-  // The frame's data without its depth image (cheap: used for the totals over every frame).
-  auto frame_data = [&](std::size_t i) {
-    const SequenceFrame& sf = seq.frames[i];
+  OverlayFrame rows(std::size_t i) const {
+    const SequenceFrame& sf = seq_.frames[i];
     const std::int64_t key = stamp_key(sf.stamp);
     OverlayFrame f;
     f.index = i;
     f.stamp_text = sf.stamp_text;
     f.pose = sf.pose;
-    f.has_reference = sum.has_reference;
-    f.after_result = last_result != std::numeric_limits<std::int64_t>::min() && key > last_result;
-    f.tracks = at(tracks, key);
-    f.detections = at(detections, key);
-    f.reference = at(reference, key);
+    f.has_reference = sum_.has_reference;
+    f.after_result =
+        in_.last_result != std::numeric_limits<std::int64_t>::min() && key > in_.last_result;
+    f.tracks = at(in_.tracks, key);
+    f.detections = at(in_.detections, key);
+    f.reference = at(in_.reference, key);
     return f;
-  };
-  std::vector<bool> depth_counted(n, false);
-  auto with_depth = [&](std::size_t i) {
-    OverlayFrame f = frame_data(i);
+  }
+
+  OverlayFrame with_depth(std::size_t i) {
+    OverlayFrame f = rows(i);
     try {
-      f.depth = load_depth(seq, seq.frames[i]);
+      f.depth = load_depth(seq_, seq_.frames[i]);
       f.depth_ok = true;
     } catch (const ToolError& e) {
-      if (!depth_counted[i]) {
-        depth_counted[i] = true;
-        ++sum.depth_missing;
-        if (sum.depth_errors.size() < 5) sum.depth_errors.push_back(e.what());
-        say(std::string("frame ") + std::to_string(i) +
-            ": depth missing, drawn without: " + e.what());
+      if (!depth_counted_[i]) {
+        depth_counted_[i] = true;
+        ++sum_.depth_missing;
+        if (sum_.depth_errors.size() < 5) sum_.depth_errors.push_back(e.what());
+        say(o_, std::string("frame ") + std::to_string(i) +
+                    ": depth missing, drawn without: " + e.what());
       }
     }
     return f;
-  };
+  }
 
+ private:
+  const Sequence& seq_;
+  const RunInputs& in_;
+  const RunOptions& o_;
+  RunSummary& sum_;
+  std::vector<bool> depth_counted_;
+};
+
+// Missed people and false dynamic tracks over every considered frame, and per frame.
+void count_totals(const Sequence& seq, const FrameSource& frames, std::size_t n,
+                  const RunOptions& o, RunSummary& sum) {
   sum.missed_per_frame.assign(n, 0);
   sum.false_per_frame.assign(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
-    const OverlayFrame f = frame_data(i);
+    const OverlayFrame f = frames.rows(i);
     const FrameAnalysis a = analyse_frame(f, o.overlay);
     sum.reference_people += a.reference_people;
     sum.missed += a.missed;
@@ -932,34 +996,10 @@ RunSummary run_overlay(const RunOptions& o) {
     sum.frames_after_result += f.after_result ? 1 : 0;
     sum.depth_files_missing += file_exists(seq.frames[i].depth_path) ? 0 : 1;
   }
+}
 
-  if (o.every > 0) {
-    for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(o.every)) {
-      char name[32];
-      std::snprintf(name, sizeof(name), "frame_%05zu.png", i);
-      const std::string path = join_path(out_dir, name);
-      render_overlay_frame(with_depth(i), cam, o.overlay, path);
-      ++sum.pictures;
-      sum.written.push_back(path);
-      say("frame " + std::to_string(i) + "/" + std::to_string(n) + " -> " + path);
-    }
-  }
-
-  // Thumbnails evenly spread over the whole run, in full rows.
-  const std::size_t columns = static_cast<std::size_t>(std::max(1, o.sheet_columns));
-  const std::size_t wanted =
-      (static_cast<std::size_t>(std::max(1, o.sheet_tiles)) + columns - 1) / columns * columns;
-  const std::size_t count = std::min(n, wanted);
-  std::vector<OverlayFrame> tiles;
-  for (std::size_t k = 0; k < count; ++k) {
-    const std::size_t i =
-        count == 1 ? 0
-                   : static_cast<std::size_t>(std::llround(static_cast<double>(k) * (n - 1) /
-                                                           static_cast<double>(count - 1)));
-    tiles.push_back(with_depth(i));
-  }
-  sum.tiles = tiles.size();
-  std::string title = "dynamap-overlay: " + base_name(o.seq) + "  /  " + base_name(o.result_dir);
+// The contact sheet's second line: frames shown and the totals.
+std::string sheet_summary(const RunSummary& sum, std::size_t n, std::size_t count) {
   std::string line = std::to_string(n) + " frames, " + std::to_string(count) + " shown";
   if (count > 1 && count < n)
     line += " (about every " + std::to_string((n - 1) / (count - 1)) + ")";
@@ -974,10 +1014,63 @@ RunSummary run_overlay(const RunOptions& o) {
     line += "dynamic track-frames " + std::to_string(sum.dynamic_tracks) +
             "   no reference: missed / false dynamic not judged";
   }
+  return line;
+}
+
+// The contact sheet: thumbnails evenly spread over the whole run, in full rows.
+void write_contact_sheet(const RunOptions& o, const CameraModel& cam, std::size_t n,
+                         FrameSource& frames, const std::string& out_dir, RunSummary& sum) {
+  const std::size_t columns = static_cast<std::size_t>(std::max(1, o.sheet_columns));
+  const std::size_t wanted =
+      (static_cast<std::size_t>(std::max(1, o.sheet_tiles)) + columns - 1) / columns * columns;
+  const std::size_t count = std::min(n, wanted);
+  std::vector<OverlayFrame> tiles;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t i =
+        count == 1 ? 0
+                   : static_cast<std::size_t>(std::llround(static_cast<double>(k) * (n - 1) /
+                                                           static_cast<double>(count - 1)));
+    tiles.push_back(frames.with_depth(i));
+  }
+  sum.tiles = tiles.size();
+  std::string title = "dynamap-overlay: " + base_name(o.seq) + "  /  " + base_name(o.result_dir);
   const std::string sheet = join_path(out_dir, "contact_sheet.png");
-  render_contact_sheet(tiles, cam, o.overlay, title, line, sheet, static_cast<int>(columns));
+  render_contact_sheet(tiles, cam, o.overlay, title, sheet_summary(sum, n, count), sheet,
+                       static_cast<int>(columns));
   sum.written.push_back(sheet);
-  say("contact sheet (" + std::to_string(count) + " tiles) -> " + sheet);
+  say(o, "contact sheet (" + std::to_string(count) + " tiles) -> " + sheet);
+}
+
+}  // namespace
+
+RunSummary run_overlay(const RunOptions& o) {
+  RunSummary sum;
+  const Sequence seq = read_sequence(o.seq);
+  if (seq.frames.empty()) throw ToolError(o.seq + ": no depth image has a pose; nothing to draw");
+  const CameraModel& cam = seq.camera;
+  const std::size_t n = o.max_frames >= 0
+                            ? std::min(seq.frames.size(), static_cast<std::size_t>(o.max_frames))
+                            : seq.frames.size();
+  if (n == 0) throw ToolError("--max-frames 0: nothing to draw");
+  sum.frames = n;
+  const RunInputs inputs = read_inputs(o, sum);
+  const std::string out_dir = o.out_dir.empty() ? join_path(o.result_dir, "overlay") : o.out_dir;
+  make_directories(out_dir, "cannot create the output directory");
+
+  FrameSource frames(seq, inputs, o, n, sum);
+  count_totals(seq, frames, n, o, sum);
+  if (o.every > 0) {
+    for (std::size_t i = 0; i < n; i += static_cast<std::size_t>(o.every)) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "frame_%05zu.png", i);
+      const std::string path = join_path(out_dir, name);
+      render_overlay_frame(frames.with_depth(i), cam, o.overlay, path);
+      ++sum.pictures;
+      sum.written.push_back(path);
+      say(o, "frame " + std::to_string(i) + "/" + std::to_string(n) + " -> " + path);
+    }
+  }
+  write_contact_sheet(o, cam, n, frames, out_dir, sum);
   return sum;
 }
 
