@@ -148,7 +148,9 @@ Value primitive(const std::string& t, cdr::Reader& in) {
     v.kind = Value::Kind::kBool;
     v.i = in.read<std::uint8_t>() != 0 ? 1 : 0;
   } else if (t == "int8") {
-    v.i = in.read<std::int8_t>();
+    // A number, not a character: the byte sign-extended by hand (no signed char conversion).
+    const int b = in.read<std::uint8_t>();
+    v.i = b < 128 ? b : b - 256;
   } else if (t == "uint8" || t == "byte" || t == "char") {
     v.kind = Value::Kind::kUInt;
     v.u = in.read<std::uint8_t>();
