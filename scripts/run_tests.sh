@@ -2,9 +2,9 @@
 # Runs the whole test suite: dev tests, ASan+UBSan tests, TSan tests of the threaded code, the
 # -fno-exceptions -fno-rtti build with its tests, the aarch64 cross build with its tests under
 # qemu-aarch64, and a short fixed-seed run of each libFuzzer target (ASan+UBSan, about 15 s
-# each), and clang-tidy over the library's sources (.clang-tidy: functions of at most 80 lines,
-# bug-prone checks, warnings as errors; on the dev build's compile commands). Prints ctest's
-# summary for each and exits non-zero if any step failed.
+# each), and clang-tidy over the library's and the tools' sources (.clang-tidy: functions of at
+# most 80 lines, bug-prone checks, warnings as errors; on the dev build's compile commands).
+# Prints ctest's summary for each and exits non-zero if any step failed.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
@@ -39,12 +39,13 @@ for p in "${PRESETS[@]}"; do
   echo "=== preset ${p}: ${result[$p]} in $(( $(date +%s) - start )) s ==="
 done
 
-# clang-tidy on every library source the dev build compiles (src/, platform/).
+# clang-tidy on every library and tool source the dev build compiles (src/, platform/, tools/;
+# the dev preset builds the tools). fuzz/ and bench/ are not in the dev build's compile commands.
 tidy="skipped (needs the dev preset)"
 if [ -f build/dev/compile_commands.json ]; then
-  echo "=== clang-tidy: src/ and platform/ ==="
+  echo "=== clang-tidy: src/, platform/ and tools/ ==="
   start=$(date +%s)
-  files=$(git ls-files 'src/*.cpp' 'platform/*.cpp' | while read -r f; do
+  files=$(git ls-files 'src/*.cpp' 'platform/*.cpp' 'tools/*.cpp' | while read -r f; do
     grep -q "\"file\": \"$(pwd)/$f\"" build/dev/compile_commands.json && echo "$f"; done)
   if echo "$files" | xargs -P 2 -n 1 clang-tidy -p build/dev --quiet >build/tidy.log 2>&1; then
     tidy="passed ($(echo "$files" | wc -l) files)"

@@ -14,7 +14,7 @@ PACKAGES=(
   libpng-dev libcairo2-dev libyaml-cpp-dev       # tools: PNG depth, pictures, YAML parameters
   libzstd-dev liblz4-dev                         # tools: ROS 2 bags (MCAP chunk compression)
   clang libclang-rt-14-dev                       # fuzz preset: libFuzzer, ASan, UBSan
-  clang-tidy                                     # static checks of the library (run_tests.sh)
+  clang-tidy                                     # static checks of library and tools (run_tests.sh)
 )
 
 # Node.js and npm for the independent MCAP check (ctest node_check): Debian's, unless a node is
