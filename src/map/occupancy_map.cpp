@@ -12,12 +12,6 @@
 namespace dynamap {
 namespace {
 
-/// Eviction passes allowed per frame; each frees a batch of far blocks (bounded O(pool) work).
-constexpr std::size_t kMaxEvictionPassesPerFrame = 8;
-/// Stamps per frame tag: 4 * tag + {kQueued, kHit, kMiss} (occupancy_map.hpp); 4 * 16383 + 3
-/// fits in uint16.
-constexpr std::uint16_t kMaxFrameTag = 16383;
-
 inline std::int32_t fast_floor(float x) noexcept {
   const auto i = static_cast<std::int32_t>(x);
   return i - static_cast<std::int32_t>(x < static_cast<float>(i));
@@ -161,17 +155,8 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
 }
 
 void OccupancyMap::reset_storage() noexcept {
-  table_.clear();
-  for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
-    free_slots_[s] = static_cast<std::uint32_t>(kMaxMapBlocks - 1 - s);  // pop yields 0, 1, ...
-  }
-  slot_used_.fill(0);
-  free_count_ = kMaxMapBlocks;
-  blocks_in_use_ = 0;
-  total_blocks_evicted_ = 0;
-  frames_ = 0;
+  store_.reset(config_.max_blocks, resolution_);
   last_stamp_ = 0;
-  frame_tag_ = 0;
   sink_tag_ = 0;
   ray_count_ = 0;
   stats_ = IntegrationStats{};
@@ -313,9 +298,9 @@ bool OccupancyMap::first_occupied_on_segment(const Eigen::Vector3f& a, const Eig
 std::uint64_t OccupancyMap::checksum() const noexcept {
   std::uint64_t sum = 0;
   for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
-    if (!slot_used_[s]) continue;
-    std::uint64_t h = mix64(slot_key_[s]);
-    for (const Voxel& v : pool_[s].voxels) {
+    if (!store_.used(s)) continue;
+    std::uint64_t h = mix64(store_.key(s));
+    for (const Voxel& v : store_.block(s).voxels) {
       h = mix64(h ^ static_cast<std::uint16_t>(v.log_odds));
     }
     sum += mix64(h);  // a sum of per-block hashes does not depend on the pool layout
@@ -330,9 +315,12 @@ Status OccupancyMap::set_log_odds(const Eigen::Vector3f& p, float value) noexcep
   if (!index_of(p, idx)) return Status::kInvalidArgument;
   const std::int32_t bi = idx[0] >> kBlockBits, bj = idx[1] >> kBlockBits,
                      bk = idx[2] >> kBlockBits;
-  Block* b = find_block(bi, bj, bk);
-  if (b == nullptr) b = allocate_block(bi, bj, bk);
-  if (b == nullptr) return Status::kCapacityExceeded;
+  Block* b = store_.find(bi, bj, bk);
+  if (b == nullptr) {
+    b = store_.allocate(bi, bj, bk);
+    if (b == nullptr) return Status::kCapacityExceeded;
+    ++stats_.blocks_allocated;
+  }
   const float q =
       std::clamp(value * kLogOddsScale, static_cast<float>(q_min_), static_cast<float>(q_max_));
   Voxel& v = b->voxels[local_index(idx[0], idx[1], idx[2])];
@@ -347,75 +335,7 @@ Status OccupancyMap::set_log_odds(const Eigen::Vector3f& p, float value) noexcep
 }
 
 // ---------------------------------------------------------------------------------------------
-// Block pool.
-
-OccupancyMap::Block* OccupancyMap::allocate_block(std::int32_t bi, std::int32_t bj,
-                                                  std::int32_t bk) noexcept {
-  if (free_count_ == 0 || blocks_in_use_ >= config_.max_blocks) return nullptr;
-  const std::uint64_t key = pack(bi, bj, bk);
-  const std::uint32_t slot = free_slots_[free_count_ - 1];
-  if (!ok(table_.insert_or_assign(key, slot))) return nullptr;  // cannot happen at load <= 0.5
-  --free_count_;
-  ++blocks_in_use_;
-  slot_used_[slot] = 1;
-  slot_key_[slot] = key;
-  Block& b = pool_[slot];
-  b.voxels.fill(Voxel{kUnknown, 0});
-  b.index = {bi, bj, bk};
-  b.occupied = 0;
-  b.last_frame = frames_;
-  b.occupied_since.fill(0);
-  ++stats_.blocks_allocated;
-  return &b;
-}
-
-void OccupancyMap::release_block(std::uint32_t slot) noexcept {
-  table_.erase(slot_key_[slot]);
-  slot_used_[slot] = 0;
-  free_slots_[free_count_++] = slot;
-  --blocks_in_use_;
-}
-
-std::size_t OccupancyMap::evict_far_blocks() noexcept {
-  if (evictions_this_frame_ >= kMaxEvictionPassesPerFrame) return 0;
-  ++evictions_this_frame_;
-  std::size_t n = 0;
-  const float half_block = 0.5f * static_cast<float>(kBlockEdge);
-  for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
-    // Blocks touched this frame stay: they may hold this frame's hits and cached pointers.
-    if (!slot_used_[s] || pool_[s].last_frame == frames_) continue;
-    const Block& b = pool_[s];
-    Eigen::Vector3f c;
-    for (int a = 0; a < 3; ++a) {
-      c[a] = (static_cast<float>(b.index[static_cast<std::size_t>(a)] * kBlockEdge) + half_block) *
-             resolution_;
-    }
-    eviction_[n++] = EvictionCandidate{(c - origin_).squaredNorm(), static_cast<std::uint32_t>(s)};
-  }
-  if (n == 0) return 0;
-  const std::size_t batch = std::min(n, std::max<std::size_t>(1, config_.max_blocks / 16));
-  const auto farther = [](const EvictionCandidate& x, const EvictionCandidate& y) {
-    return x.distance_sq > y.distance_sq;
-  };
-  std::nth_element(eviction_.begin(), eviction_.begin() + static_cast<std::ptrdiff_t>(batch - 1),
-                   eviction_.begin() + static_cast<std::ptrdiff_t>(n), farther);
-  for (std::size_t e = 0; e < batch; ++e) release_block(eviction_[e].slot);
-  stats_.blocks_evicted += batch;
-  total_blocks_evicted_ += batch;
-  return batch;
-}
-
-OccupancyMap::Block* OccupancyMap::acquire_block(std::int32_t bi, std::int32_t bj,
-                                                 std::int32_t bk) noexcept {
-  Block* b = find_block(bi, bj, bk);
-  if (b == nullptr) {
-    b = allocate_block(bi, bj, bk);
-    if (b == nullptr && evict_far_blocks() > 0) b = allocate_block(bi, bj, bk);
-    if (b == nullptr) return nullptr;
-  }
-  b->last_frame = frames_;
-  return b;
-}
+// The local block grid.
 
 inline OccupancyMap::LocalGrid OccupancyMap::local_grid() noexcept {
   LocalGrid g{grid_origin_, {}, local_grid_.data()};
@@ -432,34 +352,13 @@ inline OccupancyMap::Block* OccupancyMap::local_block(const LocalGrid& g, std::i
   const auto gi = static_cast<std::uint32_t>(bi - g.origin[0]);
   const auto gj = static_cast<std::uint32_t>(bj - g.origin[1]);
   const auto gk = static_cast<std::uint32_t>(bk - g.origin[2]);
-  if (gi >= g.dim[0] || gj >= g.dim[1] || gk >= g.dim[2]) return acquire_block(bi, bj, bk);
+  if (gi >= g.dim[0] || gj >= g.dim[1] || gk >= g.dim[2]) return store_.acquire(bi, bj, bk);
   std::uint16_t& cell = g.cells[gi + g.dim[0] * (gj + g.dim[1] * gk)];
-  if (cell != 0) return &pool_[cell - 1u];
-  Block* b = acquire_block(bi, bj, bk);
+  if (cell != 0) return &store_.block(cell - 1u);
+  Block* b = store_.acquire(bi, bj, bk);
   // Blocks touched this frame are never evicted this frame, so the cached slot stays valid.
-  if (b != nullptr) cell = static_cast<std::uint16_t>(b - pool_.data() + 1);
+  if (b != nullptr) cell = static_cast<std::uint16_t>(store_.slot_of(b) + 1);
   return b;
-}
-
-void OccupancyMap::advance_frame_stamp() noexcept {
-  if (frame_tag_ >= kMaxFrameTag) {
-    // Rare wrap (every ~9 min at 30 Hz): old stamps could alias new ones, so clear them all;
-    // and cap occupied ages (at most 9 min = 2048 ticks more by the next wrap, far below 2^15).
-    const std::uint16_t now = since_tick();
-    for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
-      if (!slot_used_[s]) continue;
-      Block& b = pool_[s];
-      for (Voxel& v : b.voxels) v.stamp = 0;
-      for (std::uint16_t& since : b.occupied_since) {
-        if (static_cast<std::uint16_t>(now - since) > kMaxSinceAgeTicks) {
-          since = static_cast<std::uint16_t>(now - kMaxSinceAgeTicks);
-        }
-      }
-    }
-    frame_tag_ = 0;
-    sink_tag_ = 0;
-  }
-  ++frame_tag_;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -689,7 +588,7 @@ inline bool OccupancyMap::mark_end_voxel(Block& block, std::size_t li, bool hit,
 }
 
 OccupancyMap::EndMarkStamps OccupancyMap::end_mark_stamps(std::size_t max_rays) const noexcept {
-  const auto base = static_cast<std::uint16_t>(frame_tag_ * 4u);
+  const auto base = static_cast<std::uint16_t>(store_.frame_tag() * 4u);
   return {static_cast<std::uint16_t>(base + kQueued),
           static_cast<std::uint16_t>(base + kHit),
           since_tick(),
@@ -922,7 +821,7 @@ void OccupancyMap::mark_end_codes(unsigned member, std::size_t samples) noexcept
       if (cell != last_cell) {
         last_cell = cell;
         const std::uint16_t slot = cell < kMaxTileCells ? cells[cell] : std::uint16_t{0};
-        block = slot != 0 ? &pool_[slot - 1u] : nullptr;
+        block = slot != 0 ? &store_.block(slot - 1u) : nullptr;
       }
       if (block == nullptr) {
         ++k.dropped;  // no block: outside the grid (never) or the pool is full
@@ -1187,9 +1086,9 @@ struct OccupancyMap::SequentialCursor {
     // Visits there are counted as dropped updates; the sink's stamps all read "hit this frame",
     // so the hot loop needs no null test, and an early-stop walk is not stopped there (hits
     // never stop a ray).
-    if (map.sink_tag_ != map.frame_tag_) {
+    if (map.sink_tag_ != map.store_.frame_tag()) {
       for (Voxel& vx : map.sink_.voxels) vx.stamp = hit_stamp;
-      map.sink_tag_ = map.frame_tag_;
+      map.sink_tag_ = map.store_.frame_tag();
     }
     block = &map.sink_;
     sink_entry = n;
@@ -1230,7 +1129,7 @@ void OccupancyMap::carve_free_space(const DepthView& depth) noexcept {
   IndexVec camera{};
   if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
   const std::size_t rays = order_rays(1, kEarlyStop);
-  const std::uint16_t base = static_cast<std::uint16_t>(frame_tag_ * 4u);
+  const std::uint16_t base = static_cast<std::uint16_t>(store_.frame_tag() * 4u);
   CarveCounters k{};
   k.visits_left = config_.max_voxel_visits_per_frame;
   SequentialCursor<kEarlyStop> cursor{*this,
@@ -1283,7 +1182,7 @@ struct OccupancyMap::TileCursor {
     const std::uint32_t cell = gi + grid.dim[0] * (gj + grid.dim[1] * gk);
     const std::uint16_t slot = grid.cells[cell];
     // A cell pass 1 did not resolve holds no hit of this frame.
-    block = slot != 0 ? &map.pool_[slot - 1u] : &map.empty_block_;
+    block = slot != 0 ? &map.store_.block(slot - 1u) : &map.empty_block_;
     std::uint16_t& set = tile.slot_of_cell[cell];
     if (set == 0) {
       tile.cells[tile.cell_count] = static_cast<std::uint16_t>(cell);
@@ -1317,7 +1216,7 @@ void OccupancyMap::carve_tile(std::size_t t, const DepthView& depth) noexcept {
   if (!index_of(origin_, camera)) return;  // cannot happen: integrate() checked the pose
   tile.counters.visits_left = std::max<std::size_t>(
       1, config_.max_voxel_visits_per_frame / static_cast<std::size_t>(config_.carve_tiles));
-  const std::uint16_t hit_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kHit);
+  const std::uint16_t hit_stamp = store_.stamp(kHit);
   TileCursor<kEarlyStop> cursor{*this, local_grid(), tile, hit_stamp,
                                 static_cast<std::uint32_t>(config_.free_ray_early_stop)};
   carve_rays<kEarlyStop>(tile.ray_begin, tile.ray_end, depth, camera, cursor, tile.counters);
@@ -1369,7 +1268,7 @@ void OccupancyMap::apply_tile_marks(unsigned member) noexcept {
   const std::size_t begin = merged_count_ * member / members;
   const std::size_t end = merged_count_ * (member + 1) / members;
   const auto tiles = static_cast<std::size_t>(config_.carve_tiles);
-  const auto miss_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kMiss);
+  const std::uint16_t miss_stamp = store_.stamp(kMiss);
   const std::int32_t q_miss = q_miss_, q_min = q_min_, q_occupied = q_occupied_;
   std::size_t updates = 0, dropped = 0;
   for (std::size_t m = begin; m < end; ++m) {
@@ -1553,17 +1452,16 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   if (const Status s = validate_pose(T_map_camera); !ok(s)) return s;
   // Keep the local region well inside the key range.
   if (const Status s = check_pose_range(T_map_camera); !ok(s)) return s;
-  if (frames_ > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
+  if (store_.frames() > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
   if (side.run != nullptr && (side.parts < 1 || side.parts > SideTask::kMaxParts)) {
     return Status::kInvalidArgument;
   }
 
   // Input accepted: from here on the frame always completes.
   stats_ = IntegrationStats{};
-  ++frames_;
   last_stamp_ = stamp;
-  advance_frame_stamp();
-  evictions_this_frame_ = 0;
+  // Eviction keeps the blocks near the camera.
+  if (store_.begin_frame(T_map_camera.translation)) sink_tag_ = 0;  // stamps wrapped
   ray_count_ = 0;
   tiles_list_rays_ = false;
   set_frame_geometry(cam, T_map_camera);
@@ -1596,6 +1494,8 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
       side.run(side.context, part);
     }
   }
+  stats_.blocks_allocated = store_.allocated_this_frame();
+  stats_.blocks_evicted = store_.evicted_this_frame();
   cam_ = nullptr;
   return Status::kOk;
 }

@@ -14,15 +14,13 @@
 #include <Eigen/Core>
 
 #include "dynamap/core/constants.hpp"
-#include "dynamap/core/fixed_hash_map.hpp"
 #include "dynamap/core/status.hpp"
 #include "dynamap/core/types.hpp"
+#include "dynamap/map/detail/block_store.hpp"
 #include "dynamap/platform/worker_team.hpp"
 
 namespace dynamap {
 
-/// Compile-time pool capacity in blocks (8^3 voxels each).
-inline constexpr std::size_t kMaxMapBlocks = 4096;
 /// Compile-time capacity of the per-frame ray list: a 640x480 image sampled with stride 2.
 inline constexpr std::size_t kMaxRaysPerFrame =
     static_cast<std::size_t>(kMaxImageWidth) * static_cast<std::size_t>(kMaxImageHeight) / 4;
@@ -128,13 +126,13 @@ class OccupancyMap {
  public:
   using VoxelKey = std::uint64_t;  ///< packed signed integer voxel indices (i, j, k), 21 bits each
 
-  static constexpr int kBlockBits = 3;
-  static constexpr int kBlockEdge = 1 << kBlockBits;  ///< voxels per block edge
-  static constexpr std::size_t kBlockVoxels = std::size_t{1} << (3 * kBlockBits);
+  static constexpr int kBlockBits = detail::kBlockBits;
+  static constexpr int kBlockEdge = detail::kBlockEdge;  ///< voxels per block edge
+  static constexpr std::size_t kBlockVoxels = detail::kBlockVoxels;
   /// Hash table slots: power of two, load <= kMaxMapBlocks / kBlockTableCapacity = 0.5.
-  static constexpr std::size_t kBlockTableCapacity = 2 * kMaxMapBlocks;
+  static constexpr std::size_t kBlockTableCapacity = detail::BlockStore::kTableCapacity;
   /// Voxel indices representable in a key: [-kKeyHalfRange, kKeyHalfRange).
-  static constexpr std::int32_t kKeyHalfRange = 1 << 20;
+  static constexpr std::int32_t kKeyHalfRange = detail::kKeyHalfRange;
   /// Upper bound on DDA steps of one segment query (longer segments are cut there).
   static constexpr std::size_t kMaxSegmentVisits = 1 << 16;
   /// Cells of the per-frame dense block cache over the local region (default region: 3179).
@@ -266,77 +264,35 @@ class OccupancyMap {
     return Status::kOk;
   }
   bool initialized() const noexcept { return initialized_; }
-  std::size_t blocks_in_use() const noexcept { return blocks_in_use_; }
-  std::size_t total_blocks_evicted() const noexcept { return total_blocks_evicted_; }
-  std::uint64_t frames_integrated() const noexcept { return frames_; }
+  std::size_t blocks_in_use() const noexcept { return store_.blocks_in_use(); }
+  std::size_t total_blocks_evicted() const noexcept { return store_.total_evicted(); }
+  std::uint64_t frames_integrated() const noexcept { return store_.frames(); }
 
  private:
-  void reset_storage() noexcept;  // empties the hash table, the block pool and the counters
-  /// int16 log-odds (x1000: 0.001 resolution, +-32 range) + uint16 frame stamp = 4 bytes, half a
-  /// float+stamp record: twice the voxels per cache line, and integer clamping is exact.
-  struct Voxel {
-    std::int16_t log_odds;
-    std::uint16_t stamp;
-  };
-  static constexpr std::int16_t kUnknown = INT16_MIN;  ///< log-odds sentinel: never observed
-  // Voxel stamps are 4 * frame tag + one of these, so a new frame needs no clearing.
-  static constexpr std::uint16_t kQueued = 1;  ///< a free ray ends here this frame, not updated
-  static constexpr std::uint16_t kHit = 2;     ///< hit applied this frame
-  static constexpr std::uint16_t kMiss = 3;    ///< miss applied this frame
-
-  struct Block {
-    std::array<Voxel, kBlockVoxels> voxels;
-    std::array<std::int32_t, 3> index;  ///< block coordinates (voxel index >> kBlockBits)
-    /// Occupied voxels in the block, kept exact on every log-odds change, so the segment query
-    /// can step over a block without any occupied voxel in one go.
-    std::uint16_t occupied;
-    std::uint64_t last_frame;  ///< frames_ value when last touched by integrate()
-    /// Per voxel: since_tick() when it last became occupied (read only while it is). Apart
-    /// from the voxels so integration's hot loops do not carry it.
-    std::array<std::uint16_t, kBlockVoxels> occupied_since;
-  };
-  /// occupied_since counts ticks of kSinceTickFrames frames, modulo 2^16; the frame-tag wrap
-  /// caps ages at kMaxSinceAgeTicks so the modular difference stays exact.
-  static constexpr std::uint64_t kSinceTickFrames = 8;
-  static constexpr std::uint16_t kMaxSinceAgeTicks = 16384;
-  std::uint16_t since_tick() const noexcept {
-    return static_cast<std::uint16_t>(frames_ / kSinceTickFrames);
-  }
-
-  struct EvictionCandidate {
-    float distance_sq;
-    std::uint32_t slot;
-  };
-
-  using IndexVec = std::array<std::int32_t, 3>;
+  void reset_storage() noexcept;  // empties the block store and the counters
+  using Voxel = detail::Voxel;
+  using Block = detail::Block;
+  using IndexVec = detail::IndexVec;
+  static constexpr std::int16_t kUnknown = detail::kUnknownLogOdds;
+  static constexpr std::uint16_t kQueued = detail::kStampQueued;
+  static constexpr std::uint16_t kHit = detail::kStampHit;
+  static constexpr std::uint16_t kMiss = detail::kStampMiss;
+  static constexpr std::uint64_t kSinceTickFrames = detail::BlockStore::kSinceTickFrames;
+  static constexpr std::uint16_t kMaxSinceAgeTicks = detail::BlockStore::kMaxSinceAgeTicks;
+  std::uint16_t since_tick() const noexcept { return store_.since_tick(); }
   static_assert(kMaxMapBlocks < 65535, "local_grid_ stores slot + 1 as uint16");
 
   static float dequantize(std::int32_t q) noexcept { return static_cast<float>(q) / kLogOddsScale; }
   static std::uint64_t pack(std::int32_t i, std::int32_t j, std::int32_t k) noexcept {
-    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-    return (static_cast<std::uint64_t>(i + kKeyHalfRange) & kMask) |
-           ((static_cast<std::uint64_t>(j + kKeyHalfRange) & kMask) << 21) |
-           ((static_cast<std::uint64_t>(k + kKeyHalfRange) & kMask) << 42);
+    return detail::pack_key(i, j, k);
   }
-  static IndexVec unpack(std::uint64_t key) noexcept {
-    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-    return {static_cast<std::int32_t>(key & kMask) - kKeyHalfRange,
-            static_cast<std::int32_t>((key >> 21) & kMask) - kKeyHalfRange,
-            static_cast<std::int32_t>((key >> 42) & kMask) - kKeyHalfRange};
-  }
+  static IndexVec unpack(std::uint64_t key) noexcept { return detail::unpack_key(key); }
   static std::size_t local_index(std::int32_t i, std::int32_t j, std::int32_t k) noexcept {
-    constexpr std::int32_t m = kBlockEdge - 1;
-    return static_cast<std::size_t>((i & m) | ((j & m) << kBlockBits) |
-                                    ((k & m) << (2 * kBlockBits)));
+    return detail::local_index(i, j, k);
   }
   bool index_of(const Eigen::Vector3f& p, IndexVec& idx) const noexcept;  ///< false if outside
   const Block* find_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) const noexcept {
-    const std::uint32_t* slot = table_.find(pack(bi, bj, bk));
-    return slot == nullptr ? nullptr : &pool_[*slot];
-  }
-  Block* find_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept {
-    const std::uint32_t* slot = table_.find(pack(bi, bj, bk));
-    return slot == nullptr ? nullptr : &pool_[*slot];
+    return store_.find(bi, bj, bk);
   }
   const Voxel* find_voxel(const IndexVec& idx) const noexcept;
   Occupancy classify(std::int16_t q) const noexcept {
@@ -357,7 +313,6 @@ class OccupancyMap {
   std::size_t scan_box(const Box3& box, std::size_t max_voxels, Visit&& visit) const;
 
   // Integration internals (src/map/occupancy_map.cpp).
-  Block* acquire_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
   /// The local block grid's geometry for one frame, held in the integration loops' locals so
   /// a block look-up does not reload the members after every map write (or after a call).
   struct LocalGrid {
@@ -368,10 +323,6 @@ class OccupancyMap {
   LocalGrid local_grid() noexcept;
   Block* local_block(const LocalGrid& g, std::int32_t bi, std::int32_t bj,
                      std::int32_t bk) noexcept;
-  Block* allocate_block(std::int32_t bi, std::int32_t bj, std::int32_t bk) noexcept;
-  std::size_t evict_far_blocks() noexcept;
-  void release_block(std::uint32_t slot) noexcept;
-  void advance_frame_stamp() noexcept;
   // A ray's end point and end voxel (clipped to the local region). Pass 2 calls this; pass 1
   // does the same float operations four pixels at a time, so both agree bit for bit.
   bool end_point(std::uint16_t raw, bool zero_carves, const Eigen::Array4f& dir,
@@ -473,17 +424,8 @@ class OccupancyMap {
   bool initialized_ = false;
 
   // --- map state ---
-  std::array<Block, kMaxMapBlocks> pool_;
-  FixedHashMap<std::uint64_t, std::uint32_t, kBlockTableCapacity> table_;
-  std::array<std::uint32_t, kMaxMapBlocks> free_slots_{};
-  std::array<std::uint64_t, kMaxMapBlocks> slot_key_{};  ///< table key of each used slot
-  std::array<std::uint8_t, kMaxMapBlocks> slot_used_{};
-  std::size_t free_count_ = 0;
-  std::size_t blocks_in_use_ = 0;
-  std::size_t total_blocks_evicted_ = 0;
-  std::uint64_t frames_ = 0;
+  detail::BlockStore store_;
   Stamp last_stamp_ = 0;
-  std::uint16_t frame_tag_ = 0;  ///< per-frame stamp base / 4 (cycles, stamps cleared on wrap)
 
   // --- per-frame scratch (inline, reused) ---
   std::array<std::uint32_t, kMaxRaysPerFrame> rays_{};  ///< pixel index (v * width + u)
@@ -552,7 +494,6 @@ class OccupancyMap {
   /// 1000 voxels = 125 blocks each side of the camera, init() checks it).
   static constexpr int kKeyBlockBits = 9;
   std::array<std::int32_t, 3> key_base_{};
-  std::array<EvictionCandidate, kMaxMapBlocks> eviction_{};
   /// Pool slot + 1 of each block of the local region resolved this frame (0: not yet).
   std::array<std::uint16_t, kLocalGridCells> local_grid_{};
   std::array<std::int32_t, 3> grid_origin_{}, grid_dim_{};
@@ -570,7 +511,6 @@ class OccupancyMap {
   Eigen::Vector3f box_min_ = Eigen::Vector3f::Zero(), box_max_ = Eigen::Vector3f::Zero();
   const CameraIntrinsics* cam_ = nullptr;
   float depth_scale_ = 0.f, cy_ = 0.f, inv_fy_ = 0.f;
-  std::size_t evictions_this_frame_ = 0;
   IntegrationStats stats_{};
 };
 
@@ -635,7 +575,7 @@ std::size_t OccupancyMap::clear_box(const Box3& box, std::size_t max_voxels,
     const auto age = static_cast<std::uint16_t>(now - block->occupied_since[li]);
     if (age >= keep_ticks) return false;  // static structure: kept
     // scan_box is const; the block lives in our own pool, so writing through it is sound.
-    Block* mutable_block = &pool_[static_cast<std::size_t>(block - pool_.data())];
+    Block* mutable_block = &store_.block(store_.slot_of(block));
     mutable_block->voxels[li].log_odds = q_min_;  // q_min_ <= q_occupied_ (init checks it)
     --mutable_block->occupied;
     const Eigen::Vector3f c = center_of(idx);
@@ -648,8 +588,8 @@ template <class F>
 void OccupancyMap::for_each_occupied(F&& f) const {
   if (!initialized_) return;
   for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
-    if (!slot_used_[s]) continue;
-    const Block& b = pool_[s];
+    if (!store_.used(s)) continue;
+    const Block& b = store_.block(s);
     for (std::int32_t k = 0; k < kBlockEdge; ++k) {
       for (std::int32_t j = 0; j < kBlockEdge; ++j) {
         for (std::int32_t i = 0; i < kBlockEdge; ++i) {
@@ -667,12 +607,12 @@ void OccupancyMap::for_each_occupied(F&& f) const {
 
 template <class F>
 void OccupancyMap::for_each_updated_last_frame(F&& f) const {
-  if (!initialized_ || frames_ == 0) return;
-  const auto hit_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kHit);
-  const auto miss_stamp = static_cast<std::uint16_t>(frame_tag_ * 4u + kMiss);
+  if (!initialized_ || store_.frames() == 0) return;
+  const std::uint16_t hit_stamp = store_.stamp(kHit);
+  const std::uint16_t miss_stamp = store_.stamp(kMiss);
   for (std::size_t s = 0; s < kMaxMapBlocks; ++s) {
-    if (!slot_used_[s]) continue;
-    const Block& b = pool_[s];
+    if (!store_.used(s)) continue;
+    const Block& b = store_.block(s);
     for (std::size_t li = 0; li < kBlockVoxels; ++li) {
       const std::uint16_t stamp = b.voxels[li].stamp;
       if (stamp != hit_stamp && stamp != miss_stamp) continue;
