@@ -21,7 +21,7 @@ bool OccupancyMap::first_non_free_on_segment(const Eigen::Vector3f& a, const Eig
     if (state != nullptr) *state = Occupancy::kUnknown;
     return true;
   }
-  detail::SegmentWalk w = detail::start_segment_walk(a, b, idx, end, resolution_);
+  detail::SegmentWalk w = detail::start_segment_walk(a, b, idx, end, params_.resolution);
   // One table lookup per block entered, not per voxel.
   std::int32_t bi = idx[0] >> kBlockBits, bj = idx[1] >> kBlockBits, bk = idx[2] >> kBlockBits;
   const Block* block = find_block(bi, bj, bk);

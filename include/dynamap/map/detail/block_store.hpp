@@ -41,6 +41,21 @@ inline IndexVec unpack_key(std::uint64_t key) noexcept {
           static_cast<std::int32_t>((key >> 21) & kMask) - kKeyHalfRange,
           static_cast<std::int32_t>((key >> 42) & kMask) - kKeyHalfRange};
 }
+/// floor(x) for x well inside the int32 range, without a libm call.
+inline std::int32_t fast_floor(float x) noexcept {
+  const auto i = static_cast<std::int32_t>(x);
+  return i - static_cast<std::int32_t>(x < static_cast<float>(i));
+}
+/// The voxel indices of point p (voxels of 1 / inv_resolution); false outside the key range.
+inline bool voxel_index(const Eigen::Vector3f& p, float inv_resolution, IndexVec& idx) noexcept {
+  constexpr float kLimit = static_cast<float>(kKeyHalfRange);
+  for (int a = 0; a < 3; ++a) {
+    const float x = p[a] * inv_resolution;
+    if (!(x >= -kLimit && x < kLimit)) return false;  // also rejects NaN
+    idx[static_cast<std::size_t>(a)] = fast_floor(x);
+  }
+  return idx[0] < kKeyHalfRange && idx[1] < kKeyHalfRange && idx[2] < kKeyHalfRange;
+}
 /// Index of voxel (i, j, k) inside its block.
 inline std::size_t local_index(std::int32_t i, std::int32_t j, std::int32_t k) noexcept {
   constexpr std::int32_t m = kBlockEdge - 1;

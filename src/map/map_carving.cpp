@@ -1,0 +1,559 @@
+// MapIntegrator pass 2: free space along each listed ray, in one walk on this thread or in
+// tiles on the team (carve_tiles > 0).
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+
+#include "map_integrator_inline.hpp"
+#include "segment_walk.hpp"
+
+namespace dynamap::detail {
+namespace {
+std::atomic<MapIntegrator::WorkerHook> g_worker_hook{nullptr};
+}  // namespace
+
+void MapIntegrator::set_worker_hook(WorkerHook hook) noexcept {
+  g_worker_hook.store(hook, std::memory_order_relaxed);
+}
+
+inline bool MapIntegrator::end_point(std::uint16_t raw, bool zero_carves, const Eigen::Array4f& dir,
+                                     Eigen::Array4f& end, IndexVec& idx,
+                                     bool& is_hit) const noexcept {
+  float z = static_cast<float>(raw) * g_.depth_scale;
+  is_hit = true;
+  if (raw == 0) {
+    if (!zero_carves) return false;  // no measurement: unknown
+    z = p_->config.no_return_free_depth;
+    is_hit = false;
+  } else if (z > p_->config.max_depth) {
+    z = p_->config.max_depth;
+    is_hit = false;
+  } else if (z < p_->config.min_depth) {
+    return false;
+  }
+  Eigen::Array4f offset = dir * z;
+  // Clip to the local region (the camera is at its centre). One packed test, rarely true:
+  // for floats, o - h > 0 exactly when o > h.
+  if ((offset.abs() - g_.half_extent4).maxCoeff() > 0.f) {
+    float scale = 1.f;
+    for (int a = 0; a < 3; ++a) {
+      const float o = std::fabs(offset[a]);
+      const float h = g_.half_extent4[a];
+      if (o > h) scale = std::min(scale, h / o);
+    }
+    if (scale < 1.f) {
+      offset *= scale * (1.f - 1e-4f);  // stay just inside so the end voxel is in the region
+      is_hit = false;
+    }
+  }
+  end = g_.origin4 + offset;
+  // Inside the local region, so inside the key range (init() bounds the region, integrate()
+  // the pose): no range checks needed.
+  const Eigen::Array4f x = end * p_->inv_resolution;
+  idx = {fast_floor(x[0]), fast_floor(x[1]), fast_floor(x[2])};
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Carving (pass 2): free space along each listed ray, walked from its end back to the camera
+// with early stop, or from the camera to its end (exact walk).
+
+namespace {
+/// Coarse-to-fine ray order of the early-stop walk (carve_free_space()).
+constexpr std::uint32_t kOrderLevels = 4;
+/// Keys of order_rays()'s counting sort: tile * kLevelKeys + level.
+constexpr std::size_t kLevelKeys = kOrderLevels + 1;
+/// Sort keys are kept in the top bits of a ray's pixel index (which needs 19) until sorted.
+constexpr int kKeyShift = 24;
+static_assert(kMaxImageWidth * kMaxImageHeight < (1 << kKeyShift), "pixel index bits");
+constexpr std::uint32_t kPixelMask = (1u << kKeyShift) - 1;
+
+/// Level of sampled pixel (column k, row j) in the coarse-to-fine order: the trailing zero bits
+/// k and j share, at most kOrderLevels; the coarsest lattice (level 0) is walked first.
+inline std::uint32_t order_level(std::uint32_t k, std::uint32_t j) noexcept {
+  const std::uint32_t kj = k | j;
+  std::uint32_t level = 0;
+  while (level < kOrderLevels && ((kj >> level) & 1u) == 0) ++level;
+  return kOrderLevels - level;
+}
+}  // namespace
+
+/// Level of each listed ray in the early-stop order and its tile, then a stable counting sort
+/// of rays_ into ordered_rays_ by (tile, level): pixel order within each. Returns the rays.
+///
+/// Early stop walks the rays coarse to fine over the sampled pixel grid: first the pixels on
+/// the lattice 2^kOrderLevels samples apart, then each finer lattice's new pixels (image order
+/// within a level). In plain image order a ray stops as soon as it has run N voxels inside its
+/// neighbour's tube, although the two lines still part at voxel corners nearer the camera;
+/// here the rays that walk first are far apart, so they walk almost to the camera and carve
+/// the near part densely before the finer rays stop against them. For the same number of
+/// visits it skips a third to half fewer misses (docs/occupancy_map.md).
+std::size_t MapIntegrator::order_rays(int tiles, bool by_level) noexcept {
+  const auto width = static_cast<std::uint32_t>(g_.cam->width);
+  const auto margin = static_cast<std::uint32_t>(p_->config.pixel_margin);
+  const auto stride = static_cast<std::uint32_t>(p_->config.pixel_stride);
+  const auto columns = static_cast<std::uint32_t>(std::max(g_.sampled_columns, 1));
+  const auto tile_count = static_cast<std::uint32_t>(tiles);
+  std::array<std::size_t, kMaxCarveTiles * kLevelKeys + 1> start{};
+  for (std::size_t r = 0; r < ray_count_; ++r) {
+    const std::uint32_t u = rays_[r] % width, v = rays_[r] / width;
+    const std::uint32_t k = (u - margin) / stride;
+    const std::uint32_t level = by_level ? order_level(k, (v - margin) / stride) : 0;
+    const std::uint32_t tile = tiles > 1 ? k * tile_count / columns : 0;
+    const std::uint32_t key = tile * static_cast<std::uint32_t>(kLevelKeys) + level;
+    rays_[r] |= key << kKeyShift;
+    ++start[key + 1];
+  }
+  for (std::size_t key = 1; key < start.size(); ++key) start[key] += start[key - 1];
+  for (int t = 0; t < tiles; ++t) {
+    TileScratch& tile = t_.tiles[static_cast<std::size_t>(t)];
+    tile.ray_begin = start[static_cast<std::size_t>(t) * kLevelKeys];
+    tile.ray_end = start[static_cast<std::size_t>(t + 1) * kLevelKeys];
+  }
+  for (std::size_t r = 0; r < ray_count_; ++r) {
+    const std::uint32_t key = rays_[r] >> kKeyShift;
+    rays_[r] &= kPixelMask;
+    ordered_rays_[start[key]++] = rays_[r];
+  }
+  return ray_count_;
+}
+
+/// order_rays() for one tile when pass 1 ran on the team: the tile's kept rays (its column
+/// strip of t_.end_kept, in pixel order), stably sorted by level into its own range of
+/// ordered_rays_ (rays_'s same range is the scratch). Runs on the member that claimed the tile;
+/// the result is order_rays()'s range for the tile.
+void MapIntegrator::list_tile_rays(std::size_t t) noexcept {
+  TileScratch& tile = t_.tiles[t];
+  const auto width = static_cast<std::uint32_t>(g_.cam->width);
+  const auto margin = static_cast<std::uint32_t>(p_->config.pixel_margin);
+  const auto stride = static_cast<std::uint32_t>(p_->config.pixel_stride);
+  const auto columns = static_cast<std::size_t>(std::max(g_.sampled_columns, 0));
+  const std::size_t rows = columns == 0 ? 0 : t_.team_samples / columns;
+  const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
+  // Column k is in tile k * tiles / columns: tile t has ceil(t * columns / tiles) onwards.
+  const std::size_t k0 = (t * columns + tiles - 1) / tiles;
+  const std::size_t k1 = ((t + 1) * columns + tiles - 1) / tiles;
+  const std::size_t begin = rows * k0;
+  const bool by_level = p_->config.free_ray_early_stop > 0;
+  std::array<std::size_t, kLevelKeys + 1> start{};
+  std::size_t n = begin;
+  for (std::size_t j = 0; j < rows; ++j) {
+    const std::uint8_t* kept = &t_.end_kept[j * columns];
+    const auto v = static_cast<std::uint32_t>(margin + j * stride);
+    const auto take = [&](std::size_t k) {
+      const auto kk = static_cast<std::uint32_t>(k);
+      const std::uint32_t level = by_level ? order_level(kk, static_cast<std::uint32_t>(j)) : 0;
+      rays_[n++] = (v * width + margin + kk * stride) | (level << kKeyShift);
+      ++start[level + 1];
+    };
+    std::size_t k = k0;
+    for (; k + 8 <= k1; k += 8) {
+      std::uint64_t eight = 0;  // few pixels keep a ray (most merge): skip 8 flags at once
+      std::memcpy(&eight, &kept[k], sizeof(eight));
+      if (eight == 0) continue;
+      for (std::size_t i = k; i < k + 8; ++i) {
+        if (kept[i] != 0) take(i);
+      }
+    }
+    for (; k < k1; ++k) {
+      if (kept[k] != 0) take(k);
+    }
+  }
+  for (std::size_t key = 1; key < start.size(); ++key) start[key] += start[key - 1];
+  for (std::size_t r = begin; r < n; ++r) {
+    const std::uint32_t ray = rays_[r];
+    ordered_rays_[begin + start[ray >> kKeyShift]++] = ray & kPixelMask;
+  }
+  tile.ray_begin = begin;
+  tile.ray_end = n;
+}
+
+/// The walk of the ray of `pixel` (false when its depth is too near): from its end voxel to
+/// the camera's when from_end (early stop), else from the camera's to its end voxel.
+bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const IndexVec& camera,
+                              bool from_end, detail::RayWalk& w) const noexcept {
+  const auto width = static_cast<std::uint32_t>(g_.cam->width);
+  const int u = static_cast<int>(pixel % width);
+  const int v = static_cast<int>(pixel / width);
+  Eigen::Array4f end;
+  bool end_is_hit = false;
+  IndexVec last{};
+  const std::uint8_t* carve_cells = no_return_row(v);
+  const bool zero_carves = carve_cells != nullptr && carve_cells[u / kNoReturnCellPixels] != 0;
+  if (!end_point(depth.at(u, v), zero_carves,
+                 g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v), end, last,
+                 end_is_hit)) {
+    return false;
+  }
+  // Parameter t in [0, 1] along from_point -> from_point + d. The far part of a ray is its own,
+  // the near part mostly what earlier rays (its neighbours in pixel order) already carved, so
+  // that is where the early-stop walk, which goes backwards, can stop.
+  const Eigen::Array4f from_point = from_end ? end : g_.origin4;
+  const Eigen::Array4f d = from_end ? Eigen::Array4f(g_.origin4 - end) : end - g_.origin4;
+  const IndexVec& from = from_end ? last : camera;
+  const IndexVec& to = from_end ? camera : last;
+  const auto axis = [&](std::size_t a, std::int32_t& i, std::int32_t& s, std::int32_t& r,
+                        float& t_max, float& t_delta) {
+    const int e = static_cast<int>(a);
+    const detail::AxisStart start =
+        detail::start_axis(from[a], to[a], from_point[e], d[e], p_->resolution);
+    i = from[a];
+    s = start.step;
+    r = start.remaining;
+    t_max = start.t_max;
+    t_delta = start.t_delta;
+  };
+  axis(0, w.ix, w.sx, w.rx, w.tx, w.dx);
+  axis(1, w.iy, w.sy, w.ry, w.ty, w.dy);
+  axis(2, w.iz, w.sz, w.rz, w.tz, w.dz);
+  // Exactly |dx|+|dy|+|dz| steps (+1 visit) so the walk ends in its last voxel whatever the
+  // rounding; an axis that reached its end index gets t = inf. The exact walk of a hit ray
+  // stops before its end voxel, which already holds this frame's hit; the early-stop walk of a
+  // hit ray starts on it (its hit stamp keeps it from being updated).
+  w.visits = static_cast<std::size_t>(w.rx + w.ry + w.rz) + (from_end || !end_is_hit ? 1u : 0u);
+  return true;
+}
+
+/// Walks ordered_rays_[begin, end) in order within k's visit budget.
+template <bool kEarlyStop, class Cursor>
+void MapIntegrator::carve_rays(std::size_t begin, std::size_t end, const DepthView& depth,
+                               const IndexVec& camera, Cursor& cursor,
+                               CarveCounters& k) const noexcept {
+  for (std::size_t r = begin; r < end; ++r) {
+    if (k.visits_left == 0) {
+      k.rays_dropped += end - r;  // the budget is spent
+      return;
+    }
+    detail::RayWalk w;
+    if (!start_ray(ordered_rays_[r], depth, camera, kEarlyStop, w)) continue;
+    ++k.rays;
+    std::size_t steps = w.visits;
+    const bool capped = steps > k.visits_left;
+    if (capped) steps = k.visits_left;
+    k.visits_left -= steps;
+    k.visits += steps;
+    cursor.run = 0;
+    const std::size_t left = detail::walk_ray<kBlockBits>(w, steps, cursor);
+    if (left > 0) {
+      // The voxels after the stopping one were never looked at: back to the budget.
+      k.visits_left += left - 1;
+      k.visits -= left - 1;
+      ++k.rays_stopped;
+    } else if (capped) {
+      ++k.rays_dropped;
+    }
+  }
+}
+
+/// Carving on the map itself (carve_tiles = 0): each visit updates the voxel at once.
+template <bool kEarlyStop>
+struct MapIntegrator::SequentialCursor {
+  MapIntegrator& map;
+  const LocalGrid grid;
+  CarveCounters& k;
+  const std::uint16_t hit_stamp, miss_stamp;
+  const std::int32_t q_miss, q_min, q_occupied;
+  const std::uint32_t stop_after;
+  Block* block = nullptr;
+  std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
+  std::uint32_t run = 0;       // consecutive voxels found missed this frame (early stop)
+
+  void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t n) noexcept {
+    block = map.local_block(grid, bi, bj, bk);
+    if (block != nullptr) return;
+    // Visits there are counted as dropped updates; the sink's stamps all read "hit this frame",
+    // so the hot loop needs no null test, and an early-stop walk is not stopped there (hits
+    // never stop a ray).
+    if (map.sink_tag_ != map.store_->frame_tag()) {
+      for (Voxel& vx : map.sink_.voxels) vx.stamp = hit_stamp;
+      map.sink_tag_ = map.store_->frame_tag();
+    }
+    block = &map.sink_;
+    sink_entry = n;
+  }
+  void leave(std::size_t n) noexcept {
+    if (block == &map.sink_) k.dropped_updates += sink_entry - n;
+  }
+  void miss(Voxel& vx) noexcept {
+    const std::int16_t old = vx.log_odds;
+    const std::int32_t current = old == kUnknown ? 0 : old;
+    const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+    vx.log_odds = updated;
+    vx.stamp = miss_stamp;
+    ++k.updates;
+    // A miss can only turn occupied into free.
+    if (old > q_occupied && updated <= q_occupied) --block->occupied;
+  }
+  bool visit(std::int32_t li) noexcept {
+    Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
+    if constexpr (kEarlyStop) {
+      // Only misses count towards the stop: at grazing angles a ray crosses voxels that other
+      // pixels hit, and the space beyond them may still be this ray's alone.
+      const std::uint16_t stamp = vx.stamp;
+      if (stamp == miss_stamp) return ++run == stop_after;
+      run = 0;
+      if (stamp != hit_stamp) miss(vx);
+    } else {
+      // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most visits
+      // (near the camera) find the voxel already updated this frame.
+      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) miss(vx);
+    }
+    return false;
+  }
+};
+
+template <bool kEarlyStop>
+void MapIntegrator::carve_free_space(const DepthView& depth) noexcept {
+  IndexVec camera{};
+  if (!voxel_index(g_.origin, p_->inv_resolution, camera))
+    return;  // cannot happen: integrate() checked the pose
+  const std::size_t rays = order_rays(1, kEarlyStop);
+  const std::uint16_t base = static_cast<std::uint16_t>(store_->frame_tag() * 4u);
+  CarveCounters k{};
+  k.visits_left = p_->config.max_voxel_visits_per_frame;
+  SequentialCursor<kEarlyStop> cursor{*this,
+                                      local_grid(),
+                                      k,
+                                      static_cast<std::uint16_t>(base + kHit),
+                                      static_cast<std::uint16_t>(base + kMiss),
+                                      p_->q_miss,
+                                      p_->q_min,
+                                      p_->q_occupied,
+                                      static_cast<std::uint32_t>(p_->config.free_ray_early_stop)};
+  carve_rays<kEarlyStop>(0, rays, depth, camera, cursor, k);
+  stats_.rays += k.rays;
+  stats_.rays_stopped_early += k.rays_stopped;
+  stats_.rays_dropped += k.rays_dropped;
+  stats_.voxel_visits += k.visits;
+  stats_.voxel_updates += k.updates;
+  stats_.updates_dropped += k.dropped_updates;
+}
+
+void MapIntegrator::carve_one_walk(const DepthView& depth) noexcept {
+  if (p_->config.free_ray_early_stop > 0) {
+    carve_free_space<true>(depth);
+  } else {
+    carve_free_space<false>(depth);
+  }
+}
+
+// --- Tiled carving (carve_tiles > 0) ---------------------------------------------------------
+// Each tile walks its rays exactly as the sequential carving does, but reads and writes its own
+// mark sets instead of the voxels' miss stamps (hit stamps, written by pass 1, are only read).
+// Tiles are claimed by the team's members through one atomic counter; what a tile computes
+// depends only on its rays and pass 1, so the members' speed and number do not matter. The
+// union of the marks is then applied once per voxel, each cell by one member.
+
+/// One tile's walk: marks in the tile's scratch, hit stamps read from the map.
+template <bool kEarlyStop>
+struct MapIntegrator::TileCursor {
+  const MapIntegrator& map;
+  const LocalGrid grid;
+  TileScratch& tile;
+  const std::uint16_t hit_stamp;
+  const std::uint32_t stop_after;
+  const Block* block = nullptr;
+  std::uint64_t* marks = nullptr;
+  std::uint32_t run = 0;
+
+  void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t) noexcept {
+    const auto gi = static_cast<std::uint32_t>(bi - grid.origin[0]);
+    const auto gj = static_cast<std::uint32_t>(bj - grid.origin[1]);
+    const auto gk = static_cast<std::uint32_t>(bk - grid.origin[2]);
+    if (gi >= grid.dim[0] || gj >= grid.dim[1] || gk >= grid.dim[2]) {
+      // Cannot happen (rays stay in the local region, inside the grid): nothing is kept.
+      block = &map.empty_block_;
+      marks = tile.discard.data();
+      return;
+    }
+    const std::uint32_t cell = gi + grid.dim[0] * (gj + grid.dim[1] * gk);
+    const std::uint16_t slot = grid.cells[cell];
+    // A cell pass 1 did not resolve holds no hit of this frame.
+    block = slot != 0 ? &map.store_->block(slot - 1u) : &map.empty_block_;
+    std::uint16_t& set = tile.slot_of_cell[cell];
+    if (set == 0) {
+      tile.cells[tile.cell_count] = static_cast<std::uint16_t>(cell);
+      tile.marks[tile.cell_count].fill(0);
+      set = static_cast<std::uint16_t>(++tile.cell_count);
+    }
+    marks = tile.marks[set - 1u].data();
+  }
+  void leave(std::size_t) noexcept {}
+  bool visit(std::int32_t li) noexcept {
+    std::uint64_t& word = marks[li >> 6];
+    const std::uint64_t bit = std::uint64_t{1} << (li & 63);
+    if ((word & bit) != 0) {
+      if constexpr (kEarlyStop) return ++run == stop_after;
+      return false;
+    }
+    run = 0;
+    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp) word |= bit;
+    return false;
+  }
+};
+
+template <bool kEarlyStop>
+void MapIntegrator::carve_tile(std::size_t t, const DepthView& depth) noexcept {
+  TileScratch& tile = t_.tiles[t];
+  for (std::size_t s = 0; s < tile.cell_count; ++s) tile.slot_of_cell[tile.cells[s]] = 0;
+  tile.cell_count = 0;
+  tile.counters = CarveCounters{};
+  if (t_.tiles_list_rays) list_tile_rays(t);
+  IndexVec camera{};
+  if (!voxel_index(g_.origin, p_->inv_resolution, camera))
+    return;  // cannot happen: integrate() checked the pose
+  tile.counters.visits_left = std::max<std::size_t>(
+      1, p_->config.max_voxel_visits_per_frame / static_cast<std::size_t>(p_->config.carve_tiles));
+  const std::uint16_t hit_stamp = store_->stamp(kHit);
+  TileCursor<kEarlyStop> cursor{*this, local_grid(), tile, hit_stamp,
+                                static_cast<std::uint32_t>(p_->config.free_ray_early_stop)};
+  carve_rays<kEarlyStop>(tile.ray_begin, tile.ray_end, depth, camera, cursor, tile.counters);
+  for (std::size_t s = 0; s < tile.cell_count; ++s) {
+    std::uint64_t any = 0;
+    for (const std::uint64_t w : tile.marks[s]) any |= w;
+    tile.nonempty[s] = any != 0 ? 1 : 0;
+  }
+}
+
+/// The cells any tile marked, in a fixed order (tile, then cell entry order), with the cell's
+/// block acquired (allocated, evicting if needed) on this thread. Returns their number.
+std::size_t MapIntegrator::collect_tile_marks() noexcept {
+  const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
+  std::fill(t_.merged_seen.begin(), t_.merged_seen.end(), std::uint64_t{0});
+  const LocalGrid grid = local_grid();
+  std::size_t m = 0;
+  for (std::size_t t = 0; t < tiles; ++t) {
+    for (std::size_t s = 0; s < t_.tiles[t].cell_count; ++s) {
+      const std::uint32_t cell = t_.tiles[t].cells[s];
+      std::uint64_t& seen = t_.merged_seen[cell >> 6];
+      const std::uint64_t bit = std::uint64_t{1} << (cell & 63);
+      if ((seen & bit) != 0) continue;
+      seen |= bit;
+      bool any = false;  // earlier tiles did not enter the cell (it would have been seen)
+      for (std::size_t o = t; o < tiles && !any; ++o) {
+        const std::uint16_t set = t_.tiles[o].slot_of_cell[cell];
+        any = set != 0 && t_.tiles[o].nonempty[set - 1u] != 0;
+      }
+      if (!any) continue;
+      const std::uint32_t gi = cell % grid.dim[0];
+      const std::uint32_t gj = (cell / grid.dim[0]) % grid.dim[1];
+      const std::uint32_t gk = cell / (grid.dim[0] * grid.dim[1]);
+      t_.merged_cell[m] = static_cast<std::uint16_t>(cell);
+      t_.merged_block[m] = local_block(grid, grid.origin[0] + static_cast<std::int32_t>(gi),
+                                       grid.origin[1] + static_cast<std::int32_t>(gj),
+                                       grid.origin[2] + static_cast<std::int32_t>(gk));
+      ++m;
+    }
+  }
+  return m;
+}
+
+/// Member `member`'s share of the collected cells: the union of the tiles' marks of the cell,
+/// one miss per marked voxel (marks never fall on this frame's hits). Cells are whole blocks,
+/// so members never write the same block.
+void MapIntegrator::apply_tile_marks(unsigned member) noexcept {
+  const std::size_t members = team_.size();
+  const std::size_t begin = t_.merged_count * member / members;
+  const std::size_t end = t_.merged_count * (member + 1) / members;
+  const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
+  const std::uint16_t miss_stamp = store_->stamp(kMiss);
+  const std::int32_t q_miss = p_->q_miss, q_min = p_->q_min, q_occupied = p_->q_occupied;
+  std::size_t updates = 0, dropped = 0;
+  for (std::size_t m = begin; m < end; ++m) {
+    const std::uint32_t cell = t_.merged_cell[m];
+    std::array<const std::uint64_t*, kMaxCarveTiles> sets{};
+    std::size_t set_count = 0;
+    for (std::size_t t = 0; t < tiles; ++t) {
+      const std::uint16_t set = t_.tiles[t].slot_of_cell[cell];
+      if (set != 0) sets[set_count++] = t_.tiles[t].marks[set - 1u].data();
+    }
+    Block* block = t_.merged_block[m];
+    for (std::size_t w = 0; w < kBlockVoxels / 64; ++w) {
+      std::uint64_t bits = 0;
+      for (std::size_t i = 0; i < set_count; ++i) bits |= sets[i][w];
+      if (block == nullptr) {
+        dropped += static_cast<std::size_t>(__builtin_popcountll(bits));
+        continue;
+      }
+      while (bits != 0) {
+        const std::size_t li = w * 64 + static_cast<std::size_t>(__builtin_ctzll(bits));
+        bits &= bits - 1;
+        Voxel& vx = block->voxels[li];
+        const std::int16_t old = vx.log_odds;
+        const std::int32_t current = old == kUnknown ? 0 : old;
+        const auto updated = static_cast<std::int16_t>(std::max(current + q_miss, q_min));
+        vx.log_odds = updated;
+        vx.stamp = miss_stamp;
+        ++updates;
+        if (old > q_occupied && updated <= q_occupied) --block->occupied;
+      }
+    }
+  }
+  t_.member_updates[member] = {updates, dropped};
+}
+
+/// Claim order of the tiles: most voxel visits in the last frame first (longest task first
+/// balances the members best); ties, and the first frame, in tile order. Only who walks which
+/// tile depends on it, never the result.
+void MapIntegrator::order_tile_claims() noexcept {
+  const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
+  for (std::size_t t = 0; t < tiles; ++t) {
+    std::size_t i = t;
+    const std::size_t visits = t_.tiles[t].counters.visits;
+    for (; i > 0 && t_.tiles[t_.tile_order[i - 1]].counters.visits < visits; --i) {
+      t_.tile_order[i] = t_.tile_order[i - 1];
+    }
+    t_.tile_order[i] = static_cast<std::uint8_t>(t);
+  }
+}
+
+void MapIntegrator::carve_tiles_in_team(const DepthView& depth) noexcept {
+  const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
+  if (!t_.tiles_list_rays) order_rays(p_->config.carve_tiles, p_->config.free_ray_early_stop > 0);
+  order_tile_claims();
+  t_.team_depth = &depth;
+  t_.next_tile.store(0, std::memory_order_relaxed);
+  team_.run(
+      [](void* self, unsigned member) {
+        auto& map = *static_cast<MapIntegrator*>(self);
+        if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
+        // The side task's parts are claimed first: longest first, and they usually are the
+        // longest (the pipeline's detection against a tile's walk).
+        const MapSideTask& side = map.t_.side_task;
+        const std::uint32_t first_tile = side.run != nullptr ? side.parts : 0u;
+        const auto count = static_cast<std::uint32_t>(map.p_->config.carve_tiles) + first_tile;
+        for (std::uint32_t i = map.t_.next_tile.fetch_add(1, std::memory_order_relaxed); i < count;
+             i = map.t_.next_tile.fetch_add(1, std::memory_order_relaxed)) {
+          if (i < first_tile) {
+            side.run(side.context, i);
+            continue;
+          }
+          const std::size_t t = map.t_.tile_order[i - first_tile];
+          if (map.p_->config.free_ray_early_stop > 0) {
+            map.carve_tile<true>(t, *map.t_.team_depth);
+          } else {
+            map.carve_tile<false>(t, *map.t_.team_depth);
+          }
+        }
+      },
+      this);
+  for (std::size_t t = 0; t < tiles; ++t) {
+    const CarveCounters& k = t_.tiles[t].counters;
+    stats_.rays += k.rays;
+    stats_.rays_stopped_early += k.rays_stopped;
+    stats_.rays_dropped += k.rays_dropped;
+    stats_.voxel_visits += k.visits;
+  }
+  t_.merged_count = collect_tile_marks();
+  team_.run([](void* self,
+               unsigned member) { static_cast<MapIntegrator*>(self)->apply_tile_marks(member); },
+            this);
+  for (unsigned m = 0; m < team_.size(); ++m) {
+    stats_.voxel_updates += t_.member_updates[m][0];
+    stats_.updates_dropped += t_.member_updates[m][1];
+  }
+  t_.team_depth = nullptr;
+}
+
+}  // namespace dynamap::detail
