@@ -1209,6 +1209,23 @@ TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
   EXPECT_NE(json.find("\"linear_failure_ratio\": 0.5"), std::string::npos);
   EXPECT_NE(eval::format_table(r).find("MOTA"), std::string::npos);
 
+  // Without svx,svy columns there is nothing to calibrate.
+  EXPECT_EQ(r.velocity_sigma_errors, 0u);
+  EXPECT_TRUE(std::isnan(r.velocity_within_1sigma));
+
+  // With them: per-axis errors against the reported sigma. Track 10: errors (0.1, 0) against
+  // sigma (0.05, 0.05); track 14: (0, 0.1) against (0.2, 0.04). Inside 1 sigma: 10's y, 14's x;
+  // inside 2 sigma also 10's x (0.1 <= 2 * 0.05).
+  write_file(res / "tracks.csv",
+             "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path,svx,svy\n"
+             "1.000000,10,3.1,0,0.85,0.9,0,0,0.5,0.5,1.7,1,2,0.05,0.05\n"
+             "2.000000,14,3.1,0.3,0.85,1,0.1,0,0.5,0.5,1.7,1,2,0.2,0.04\n");
+  const eval::EvalResult c = eval::evaluate(seq.str(), res.str());
+  EXPECT_EQ(c.matched, 2u);
+  EXPECT_EQ(c.velocity_sigma_errors, 4u);
+  EXPECT_NEAR(c.velocity_within_1sigma, 0.5, 1e-12);
+  EXPECT_NEAR(c.velocity_within_2sigma, 0.75, 1e-12);
+
   // Malformed result rows are reported with file and line.
   write_file(res / "tracks.csv", "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n1.0,1,2\n");
   expect_error([&] { (void)eval::evaluate(seq.str(), res.str()); }, {"tracks.csv:2"});

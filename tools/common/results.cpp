@@ -25,6 +25,8 @@ class CsvTable {
     }
   }
 
+  bool has(const char* name) const { return columns_.count(name) != 0; }
+
   template <class F>
   void for_each_row(F&& f) const {
     for (std::size_t i = header_line_ + 1; i < lines_.size(); ++i) {
@@ -63,6 +65,7 @@ class CsvTable {
 std::vector<TrackRow> read_tracks_csv(const std::string& path) {
   const CsvTable t(
       path, {"stamp", "id", "x", "y", "z", "vx", "vy", "vz", "sx", "sy", "sz", "dynamic", "path"});
+  const bool with_sigma = t.has("svx") && t.has("svy");
   std::vector<TrackRow> rows;
   t.for_each_row([&](const std::vector<std::string>& f, const TextLocation& at) {
     TrackRow r;
@@ -76,6 +79,7 @@ std::vector<TrackRow> read_tracks_csv(const std::string& path) {
     if (dyn != 0 && dyn != 1) fail_at(at, "dynamic must be 0 or 1");
     r.dynamic = dyn == 1;
     r.path = t.integer(f, "path", at);
+    if (with_sigma) r.velocity_sigma = {t.num(f, "svx", at), t.num(f, "svy", at)};
     rows.push_back(r);
   });
   return rows;

@@ -3,6 +3,7 @@
 // (anywhere) are ignored.
 #pragma once
 
+#include <limits>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -13,7 +14,8 @@
 
 namespace dynamap::tools {
 
-/// One row of tracks.csv: stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path
+/// One row of tracks.csv: stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path and, when written by
+/// this project's replay, svx,svy (the velocity's standard deviation per axis).
 struct TrackRow {
   double stamp = 0.0;
   std::string stamp_text;
@@ -23,6 +25,9 @@ struct TrackRow {
   Eigen::Vector3d size = Eigen::Vector3d::Zero();
   bool dynamic = false;
   int path = -1;
+  /// m/s per axis, from the filter's covariance; NaN when the file has no svx,svy columns.
+  Eigen::Vector2d velocity_sigma =
+      Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
 
 /// One row of predictions.csv: stamp,id,path,probability,k,t,x,y,z

@@ -166,7 +166,19 @@ std::map<int, std::size_t> first_frames(const Sequence& seq, const std::vector<T
 struct MatchState {
   std::map<int, int> last_track_of_gt;  // gt id -> track id of its last match
   double pos_sum = 0.0, vel_sum = 0.0, settled_vel_sum = 0.0;
+  std::size_t within_1sigma = 0, within_2sigma = 0;  // per-axis velocity errors (calibration)
 };
+
+// Per-axis velocity errors against the track's reported sigma (rows with svx,svy only).
+void count_calibration(const ObstacleRecord& o, const TrackRow& t, MatchState& m, EvalResult& r) {
+  if (!t.velocity_sigma.allFinite()) return;
+  for (int a = 0; a < 2; ++a) {
+    const double err = std::fabs(o.velocity[a] - t.velocity[a]);
+    ++r.velocity_sigma_errors;
+    m.within_1sigma += err <= t.velocity_sigma[a];
+    m.within_2sigma += err <= 2.0 * t.velocity_sigma[a];
+  }
+}
 
 // One frame's obstacles and dynamic track rows as the matching sees them.
 struct FrameSets {
@@ -258,6 +270,7 @@ void score_frame(const FrameSets& s, const std::vector<int>& match,
     m.pos_sum += top_dist(o.center, t.center);
     const double vel_error = (o.velocity.head<2>() - t.velocity.head<2>()).norm();
     m.vel_sum += vel_error;
+    count_calibration(o, t, m, r);
     if (frame_index >= first_frame.at(t.id) + opt.settled_frames) {
       ++r.matched_settled;
       m.settled_vel_sum += vel_error;
@@ -291,6 +304,9 @@ void finish_rates(const std::vector<TrackRow>& track_rows, const std::set<std::i
   r.position_error = r.matched > 0 ? m.pos_sum / r.matched : kNaN;
   r.velocity_error = r.matched > 0 ? m.vel_sum / r.matched : kNaN;
   r.velocity_error_settled = r.matched_settled > 0 ? m.settled_vel_sum / r.matched_settled : kNaN;
+  const double n_sigma = static_cast<double>(r.velocity_sigma_errors);
+  r.velocity_within_1sigma = n_sigma > 0 ? static_cast<double>(m.within_1sigma) / n_sigma : kNaN;
+  r.velocity_within_2sigma = n_sigma > 0 ? static_cast<double>(m.within_2sigma) / n_sigma : kNaN;
   r.recall = r.gt_count > 0 ? static_cast<double>(r.matched) / r.gt_count : kNaN;
   r.precision = r.dynamic_track_rows > 0
                     ? static_cast<double>(r.dynamic_rows_near_obstacle) / r.dynamic_track_rows
@@ -421,6 +437,10 @@ std::string format_table(const EvalResult& r) {
   row("  settled tracks", num(r.velocity_error_settled, 3),
       std::to_string(r.matched_settled) +
           " matched pairs whose track is >= " + std::to_string(r.settled_frames) + " frames old");
+  row("velocity within 1 sigma", num(r.velocity_within_1sigma, 3),
+      "share of " + std::to_string(r.velocity_sigma_errors) +
+          " per-axis errors inside the reported sigma (Gaussian 0.683)");
+  row("velocity within 2 sigma", num(r.velocity_within_2sigma, 3), "(Gaussian 0.954)");
   row("recall", num(r.recall, 3),
       std::to_string(r.matched) + " matched / " + std::to_string(r.gt_count) + " ground truth");
   row("precision", num(r.precision, 3),
@@ -507,6 +527,9 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
     << "  \"velocity_error_mps\": " << json_num(r.velocity_error) << ",\n"
     << "  \"matched_settled\": " << r.matched_settled << ",\n"
     << "  \"velocity_error_settled_mps\": " << json_num(r.velocity_error_settled) << ",\n"
+    << "  \"velocity_sigma_errors\": " << r.velocity_sigma_errors << ",\n"
+    << "  \"velocity_within_1sigma\": " << json_num(r.velocity_within_1sigma) << ",\n"
+    << "  \"velocity_within_2sigma\": " << json_num(r.velocity_within_2sigma) << ",\n"
     << "  \"recall\": " << json_num(r.recall) << ",\n"
     << "  \"precision\": " << json_num(r.precision) << ",\n"
     << "  \"dynamic_track_rows\": " << r.dynamic_track_rows << ",\n"

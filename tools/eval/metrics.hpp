@@ -55,11 +55,17 @@ struct EvalResult {
   std::size_t settled_frames = 0;            ///< EvalOptions::settled_frames of the run
   std::size_t matched_settled = 0;           ///< matched pairs with a track >= settled_frames old
   double velocity_error_settled = 0.0;       ///< m/s over those, NaN when there are none
-  double recall = 0.0;                       ///< NaN when gt_count == 0
-  double precision = 0.0;                    ///< NaN when there are no dynamic rows
-  double mota = 0.0;                         ///< NaN when gt_count == 0
-  PredictionMetrics markov;                  ///< predictions.csv
-  PredictionMetrics linear;                  ///< predictions_linear.csv (optional)
+  /// Calibration of the reported velocity uncertainty (tracks.csv svx,svy): per-axis velocity
+  /// errors of matched pairs, and the shares of them within 1 and 2 reported sigma (a Gaussian:
+  /// 0.683, 0.954). NaN when tracks.csv has no sigma columns.
+  std::size_t velocity_sigma_errors = 0;
+  double velocity_within_1sigma = 0.0;
+  double velocity_within_2sigma = 0.0;
+  double recall = 0.0;       ///< NaN when gt_count == 0
+  double precision = 0.0;    ///< NaN when there are no dynamic rows
+  double mota = 0.0;         ///< NaN when gt_count == 0
+  PredictionMetrics markov;  ///< predictions.csv
+  PredictionMetrics linear;  ///< predictions_linear.csv (optional)
   std::vector<std::string> notes;
 };
 

@@ -368,7 +368,7 @@ OutputFiles open_outputs(const Options& o) {
   f.linear = open_out(join_path(o.out, "predictions_linear.csv"));
   f.timing = open_out(join_path(o.out, "timing.csv"));
   f.detections = open_out(join_path(o.out, "detections.csv"));
-  f.tracks << "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n";
+  f.tracks << "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path,svx,svy\n";
   f.detections << "stamp,index,x,y,z,sx,sy,sz,u0,v0,u1,v1,refined\n";
   f.preds << "stamp,id,path,probability,k,t,x,y,z\n";
   f.linear << "stamp,id,path,probability,k,t,x,y,z\n";
@@ -402,7 +402,9 @@ void write_track_rows(std::ostream& tracks, const std::string& stamp_text, const
     const Eigen::Vector3f c = ob.box.center(), sz = ob.box.size();
     tracks << stamp_text << "," << ob.id << "," << c.x() << "," << c.y() << "," << c.z() << ","
            << ob.velocity.x() << "," << ob.velocity.y() << "," << ob.velocity.z() << "," << sz.x()
-           << "," << sz.y() << "," << sz.z() << "," << (ob.dynamic ? 1 : 0) << "," << path << "\n";
+           << "," << sz.y() << "," << sz.z() << "," << (ob.dynamic ? 1 : 0) << "," << path << ","
+           << std::sqrt(ob.velocity_covariance(0, 0)) << ","
+           << std::sqrt(ob.velocity_covariance(1, 1)) << "\n";
     tally.ids.insert(ob.id);
     if (ob.dynamic) {
       tally.dynamic_ids.insert(ob.id);
