@@ -412,6 +412,12 @@ std::vector<V2> Generator::plan_loop(const std::vector<V2>& stops, double c,
     at->push_back(static_cast<int>(loop.size()));
     loop.insert(loop.end(), leg.begin(), leg.end() - 1);  // the next leg adds its start
   }
+  if (loop.empty()) return {};
+  // A stop whose leg added no point (it coincides with the next stop) may sit at loop.size():
+  // on a closed loop that is the first point.
+  for (int& i : *at) {
+    if (i >= static_cast<int>(loop.size())) i = 0;
+  }
   return loop;
 }
 
