@@ -2,9 +2,9 @@
 // check the frame against its budget, sleep until the next period. This is the shape of the
 // loop a flight stack runs dynamap in (optionally on a SCHED_FIFO thread pinned to a core).
 //
-// Usage: rtos_loop [frames=60] [period_ms=33] [budget_ms=10] [map_threads=1]
-// map_threads > 1 integrates the occupancy map on that many threads (tiled carving, 4 tiles):
-// the map creates its helpers at init, the loop itself is unchanged.
+// Usage: rtos_loop [frames=60] [period_ms=33] [budget_ms=10] [threads=1]
+// threads > 1 gives the pipeline a team of that many threads (the map's tiled carving, 4 tiles,
+// with detection beside it): the pipeline creates its helpers at init, the loop is unchanged.
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
   config.budgets.frame_ns = budget_ns;
   if (map_threads > 1) {
     config.map.carve_tiles = 4;
-    config.map.threads = map_threads;
+    config.team.members = map_threads;
   }
   if (!dynamap::ok(pipeline->init(config))) return 1;
 

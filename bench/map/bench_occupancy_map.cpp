@@ -25,6 +25,7 @@
 
 #include "carve_compare.hpp"
 #include "dynamap/map/occupancy_map.hpp"
+#include "dynamap/platform/worker_team.hpp"
 
 namespace {
 
@@ -213,22 +214,25 @@ BENCHMARK(BM_Dynamap)
     ->Args({0, 0})
     ->Unit(benchmark::kMillisecond);
 
-/// The map's worker team (OccupancyMapConfig::threads) with tiled carving, next to the one-walk
-/// carving (tiles 0) in the same run; early stop and the default visit cap, as the pipeline
-/// runs it. Wall time (UseRealTime): the helpers' CPU time is not the caller's.
+/// Tiled carving on a team of threads (as the pipeline lends the map its team), next to the
+/// one-walk carving (tiles 0) in the same run; early stop and the default visit cap, as the
+/// pipeline runs it. Wall time (UseRealTime): the helpers' CPU time is not the caller's.
 void BM_DynamapThreads(benchmark::State& state) {
   const Dataset& d = dataset();
   OccupancyMapConfig cfg = d.config;
   cfg.free_ray_early_stop = kEarlyStop;
   cfg.carve_tiles = static_cast<int>(state.range(0));
-  cfg.threads = static_cast<int>(state.range(1));
   auto map = std::make_unique<OccupancyMap>();
   if (!dynamap::ok(map->init(cfg))) state.SkipWithError("init failed");
+  dynamap::platform::WorkerTeam team;
+  if (!dynamap::ok(team.start(static_cast<unsigned>(state.range(1)), {}))) {
+    state.SkipWithError("team start failed");
+  }
   dynamap::Stamp t = 0;
   std::size_t i = 0, visits = 0;
   for (auto _ : state) {
     const Frame& f = d.frames[i++ % d.frames.size()];
-    const dynamap::Status s = map->integrate(d.view(f), d.cam, f.pose, t += kFrameNs);
+    const dynamap::Status s = map->integrate(d.view(f), d.cam, f.pose, t += kFrameNs, &team);
     benchmark::DoNotOptimize(s);
     visits += map->last_stats().voxel_visits;
   }

@@ -6,10 +6,10 @@
 //       [--threads=1,2,4 [--tiles=4] [--period-ms=P]]
 //
 // --threads runs the one-walk pipeline (map.carve_tiles 0, one thread) and then, for each
-// listed count, map.threads = count with map.carve_tiles = --tiles (default 4), pass by pass in
+// listed count, team.members = count with map.carve_tiles = --tiles (default 4), pass by pass in
 // turn (so load drift hits them alike), always on the wall clock, and prints the medians and
 // their ratios to the first entry. Frames run back to back unless --period-ms starts them P ms
-// apart, as a camera delivers them: the map's helpers then fall asleep between frames (they
+// apart, as a camera delivers them: the team's helpers then fall asleep between frames (they
 // spin only briefly), and each frame pays for waking them.
 //
 // Stage times are the pipeline's own timers. By default they read the thread's CPU clock, so a
@@ -100,7 +100,7 @@ int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames,
     for (Run& r : runs) {
       PipelineConfig config = base;
       config.map.carve_tiles = r.tiles;
-      config.map.threads = r.threads;
+      config.team.members = r.threads;
       if (!ok(pipeline->init(config))) return 1;
       pipeline->set_clock(&wall_clock);
       auto next = std::chrono::steady_clock::now();
@@ -126,7 +126,7 @@ int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames,
     std::sort(v.begin(), v.end());
     return ms(v[v.size() / 2]);
   };
-  std::printf("\nmap threads, wall clock, %d frames x %d passes in turn, %s\n", frames - 1, passes,
+  std::printf("\nteam threads, wall clock, %d frames x %d passes in turn, %s\n", frames - 1, passes,
               period_ms > 0 ? "frames paced" : "frames back to back");
   std::printf(
       "| map | threads | occupancy median (ms) | ratio | detection median (ms) | frame median "
@@ -138,7 +138,7 @@ int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames,
                 r.threads, occ, occ / occ0, det, tot, tot / tot0);
   }
   std::printf(
-      "(threads > 1: detection runs on the map's team during the carving; its time is inside "
+      "(threads > 1: detection runs on the team beside the carving; its time is inside "
       "the occupancy column)\n");
   return 0;
 }
@@ -175,14 +175,15 @@ int main(int argc, char** argv) {
   }
   const int frames = numbers.size() > 0 ? numbers[0] : 300;
   const int passes = numbers.size() > 1 ? numbers[1] : 3;
-  const bool threads_ok = std::all_of(threads.begin(), threads.end(),
-                                      [](int n) { return n >= 1 && n <= kMaxMapThreads; });
+  const bool threads_ok = std::all_of(threads.begin(), threads.end(), [](int n) {
+    return n >= 1 && n <= static_cast<int>(kMaxTeamMembers);
+  });
   if (frames < 2 || passes < 1 || tiles < 1 || tiles > kMaxCarveTiles || !threads_ok ||
       period_ms < 0 || period_ms > 1000) {
     std::fprintf(stderr,
                  "bench_pipeline: need frames >= 2, passes >= 1, tiles 1..%d, threads 1..%d, "
                  "period-ms 0..1000\n%s",
-                 static_cast<int>(kMaxCarveTiles), static_cast<int>(kMaxMapThreads), kUsage);
+                 static_cast<int>(kMaxCarveTiles), static_cast<int>(kMaxTeamMembers), kUsage);
     return 2;
   }
   const Pipeline::Clock clock = wall ? &wall_clock : &cpu_clock;

@@ -75,7 +75,7 @@ struct Named {
 PipelineConfig two_map_threads() {
   PipelineConfig c;
   c.map.carve_tiles = 4;
-  c.map.threads = 2;
+  c.team.members = 2;
   return c;
 }
 
@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
       std::printf("%s: refused by validation at %s (%s)\n", n.name, err.field, err.reason);
       return 1;
     }
-    const bool on_wall = wall || n.config.map.threads > 1;
+    const bool on_wall = wall || n.config.team.members > 1;
     pipeline->set_clock(on_wall ? &wall_clock : &cpu_clock);
     const WorstCaseWork bound = worst_case_work(n.config);
     const CameraIntrinsics& cam = n.config.camera;

@@ -453,7 +453,7 @@ std::size_t MapIntegrator::collect_tile_marks() noexcept {
 /// one miss per marked voxel (marks never fall on this frame's hits). Cells are whole blocks,
 /// so members never write the same block.
 void MapIntegrator::apply_tile_marks(unsigned member) noexcept {
-  const std::size_t members = team_.size();
+  const std::size_t members = team_->size();
   const std::size_t begin = t_.merged_count * member / members;
   const std::size_t end = t_.merged_count * (member + 1) / members;
   const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
@@ -508,36 +508,28 @@ void MapIntegrator::order_tile_claims() noexcept {
   }
 }
 
-void MapIntegrator::carve_tiles_in_team(const DepthView& depth) noexcept {
-  const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
+void MapIntegrator::prepare_tiles() noexcept {
   if (!t_.tiles_list_rays) order_rays(p_->config.carve_tiles, p_->config.free_ray_early_stop > 0);
   order_tile_claims();
-  t_.team_depth = &depth;
   t_.next_tile.store(0, std::memory_order_relaxed);
-  team_.run(
-      [](void* self, unsigned member) {
-        auto& map = *static_cast<MapIntegrator*>(self);
-        if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
-        // The side task's parts are claimed first: longest first, and they usually are the
-        // longest (the pipeline's detection against a tile's walk).
-        const MapSideTask& side = map.t_.side_task;
-        const std::uint32_t first_tile = side.run != nullptr ? side.parts : 0u;
-        const auto count = static_cast<std::uint32_t>(map.p_->config.carve_tiles) + first_tile;
-        for (std::uint32_t i = map.t_.next_tile.fetch_add(1, std::memory_order_relaxed); i < count;
-             i = map.t_.next_tile.fetch_add(1, std::memory_order_relaxed)) {
-          if (i < first_tile) {
-            side.run(side.context, i);
-            continue;
-          }
-          const std::size_t t = map.t_.tile_order[i - first_tile];
-          if (map.p_->config.free_ray_early_stop > 0) {
-            map.carve_tile<true>(t, *map.t_.team_depth);
-          } else {
-            map.carve_tile<false>(t, *map.t_.team_depth);
-          }
-        }
-      },
-      this);
+}
+
+void MapIntegrator::carve_tile_claims(unsigned member) noexcept {
+  if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
+  const auto count = static_cast<std::uint32_t>(p_->config.carve_tiles);
+  for (std::uint32_t i = t_.next_tile.fetch_add(1, std::memory_order_relaxed); i < count;
+       i = t_.next_tile.fetch_add(1, std::memory_order_relaxed)) {
+    const std::size_t t = t_.tile_order[i];
+    if (p_->config.free_ray_early_stop > 0) {
+      carve_tile<true>(t, *t_.team_depth);
+    } else {
+      carve_tile<false>(t, *t_.team_depth);
+    }
+  }
+}
+
+void MapIntegrator::finish_tiles() noexcept {
+  const auto tiles = static_cast<std::size_t>(p_->config.carve_tiles);
   for (std::size_t t = 0; t < tiles; ++t) {
     const CarveCounters& k = t_.tiles[t].counters;
     stats_.rays += k.rays;
@@ -546,14 +538,13 @@ void MapIntegrator::carve_tiles_in_team(const DepthView& depth) noexcept {
     stats_.voxel_visits += k.visits;
   }
   t_.merged_count = collect_tile_marks();
-  team_.run([](void* self,
-               unsigned member) { static_cast<MapIntegrator*>(self)->apply_tile_marks(member); },
-            this);
-  for (unsigned m = 0; m < team_.size(); ++m) {
+  team_->run([](void* self,
+                unsigned member) { static_cast<MapIntegrator*>(self)->apply_tile_marks(member); },
+             this);
+  for (unsigned m = 0; m < team_->size(); ++m) {
     stats_.voxel_updates += t_.member_updates[m][0];
     stats_.updates_dropped += t_.member_updates[m][1];
   }
-  t_.team_depth = nullptr;
 }
 
 }  // namespace dynamap::detail

@@ -300,7 +300,7 @@ void MapIntegrator::compute_end_codes(std::size_t chunk) noexcept {
   const int margin = p_->config.pixel_margin, stride = p_->config.pixel_stride;
   const int columns = g_.sampled_columns;
   const int rows = std::max(0, (g_.cam->height - 2 * margin + stride - 1) / stride);
-  const unsigned members = team_.size();
+  const unsigned members = team_->size();
   const auto j0 = static_cast<int>(static_cast<std::size_t>(rows) * chunk / kCodeChunks);
   const auto j1 = static_cast<int>(static_cast<std::size_t>(rows) * (chunk + 1) / kCodeChunks);
   const LocalGrid grid = local_grid();
@@ -418,14 +418,13 @@ void MapIntegrator::mark_end_codes(unsigned member, std::size_t samples) noexcep
   t_.member_marks[member] = k;
 }
 
-void MapIntegrator::mark_end_points_in_team(const DepthView& depth) noexcept {
+void MapIntegrator::mark_end_points_in_team() noexcept {
   const int margin = p_->config.pixel_margin, stride = p_->config.pixel_stride;
   const int columns = g_.sampled_columns;
   const int rows = std::max(0, (g_.cam->height - 2 * margin + stride - 1) / stride);
   const std::size_t samples = static_cast<std::size_t>(rows) * static_cast<std::size_t>(columns);
-  t_.team_depth = &depth;
   t_.next_chunk.store(0, std::memory_order_relaxed);
-  team_.run(
+  team_->run(
       [](void* self, unsigned) {
         auto& map = *static_cast<MapIntegrator*>(self);
         for (std::uint32_t c = map.t_.next_chunk.fetch_add(1, std::memory_order_relaxed);
@@ -436,14 +435,14 @@ void MapIntegrator::mark_end_points_in_team(const DepthView& depth) noexcept {
       this);
   acquire_end_blocks();
   t_.team_samples = samples;
-  team_.run(
+  team_->run(
       [](void* self, unsigned member) {
         auto& map = *static_cast<MapIntegrator*>(self);
         map.mark_end_codes(member, map.t_.team_samples);
       },
       this);
   EndMarkCounters total{};
-  for (unsigned m = 0; m < team_.size(); ++m) {
+  for (unsigned m = 0; m < team_->size(); ++m) {
     const EndMarkCounters& k = t_.member_marks[m];
     total.rays += k.rays;
     total.pixels += k.pixels;
@@ -456,7 +455,6 @@ void MapIntegrator::mark_end_points_in_team(const DepthView& depth) noexcept {
   add_end_mark_counters(total);
   ray_count_ = total.rays;  // listed by the tiles themselves (list_tile_rays())
   t_.tiles_list_rays = true;
-  t_.team_depth = nullptr;
 }
 
 }  // namespace dynamap::detail

@@ -1,5 +1,6 @@
-// MapIntegrator: a frame's set-up (geometry, no-return regions), the order of its two passes,
-// and the worker team. The passes: src/map/map_end_points.cpp, src/map/map_carving.cpp.
+// MapIntegrator: a frame's set-up (geometry, no-return regions) and the order of its two
+// passes on the team lent for the frame. The passes: src/map/map_end_points.cpp,
+// src/map/map_carving.cpp.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -27,21 +28,6 @@ std::uint32_t first_raw_where(float scale, Pred pred) noexcept {
 }
 
 }  // namespace
-
-Status MapIntegrator::start_team(const OccupancyMapConfig& c) noexcept {
-  if (team_.size() == static_cast<unsigned>(c.threads) &&
-      team_fifo_priority_ == c.helper_fifo_priority && team_first_cpu_ == c.helper_first_cpu) {
-    return Status::kOk;
-  }
-  team_.stop();
-  platform::ThreadOptions options{};
-  options.name = "dynamap-map";
-  options.fifo_priority = c.helper_fifo_priority;
-  options.cpu = c.helper_first_cpu;
-  team_fifo_priority_ = c.helper_fifo_priority;
-  team_first_cpu_ = c.helper_first_cpu;
-  return team_.start(static_cast<unsigned>(c.threads), options);
-}
 
 void MapIntegrator::reset(const std::array<std::int32_t, 3>& grid_dim, std::size_t cells) noexcept {
   grid_dim_ = grid_dim;
@@ -140,8 +126,10 @@ void MapIntegrator::set_frame_geometry(const CameraIntrinsics& cam,
   }
 }
 
-void MapIntegrator::integrate(const DepthView& depth, const CameraIntrinsics& cam,
-                              const Pose& T_map_camera, const MapSideTask& side) noexcept {
+void MapIntegrator::begin(const DepthView& depth, const CameraIntrinsics& cam,
+                          const Pose& T_map_camera, TaskTeam& team) noexcept {
+  team_ = &team;
+  t_.team_depth = &depth;
   stats_ = IntegrationStats{};
   // Eviction keeps the blocks near the camera.
   if (store_->begin_frame(T_map_camera.translation)) sink_tag_ = 0;  // stamps wrapped
@@ -157,45 +145,31 @@ void MapIntegrator::integrate(const DepthView& depth, const CameraIntrinsics& ca
       static_cast<std::size_t>(g_.sampled_columns) *
       static_cast<std::size_t>(std::max(0, (cam.height - 2 * margin + stride - 1) / stride));
   if (p_->config.carve_tiles > 0 && samples <= p_->config.max_rays_per_frame) {
-    mark_end_points_in_team(depth);
+    mark_end_points_in_team();
   } else {
     mark_end_points(depth);
   }
+  // Pass 2 (free space along each ray, a 3-D DDA within the visit budget) is carve_share().
+  if (p_->config.carve_tiles > 0) prepare_tiles();
+}
 
-  // Pass 2: free space along each ray with a 3-D DDA, within the visit budget.
+void MapIntegrator::carve_share(unsigned member) noexcept {
+  if (team_ == nullptr) return;
   if (p_->config.carve_tiles > 0) {
-    t_.side_task = side;
-    carve_tiles_in_team(depth);
-    t_.side_task = MapSideTask{};
-  } else {
-    carve_one_walk(depth);
-    for (unsigned part = 0; side.run != nullptr && part < side.parts; ++part) {
-      side.run(side.context, part);
-    }
+    carve_tile_claims(member);
+  } else if (member == 0) {
+    carve_one_walk(*t_.team_depth);
   }
+}
+
+void MapIntegrator::finish() noexcept {
+  if (team_ == nullptr) return;
+  if (p_->config.carve_tiles > 0) finish_tiles();
   stats_.blocks_allocated = store_->allocated_this_frame();
   stats_.blocks_evicted = store_->evicted_this_frame();
   g_.cam = nullptr;
-}
-
-void MapIntegrator::run_on_team(const MapSideTask& task) noexcept {
-  if (team_.size() <= 1) {
-    for (unsigned part = 0; part < task.parts; ++part) task.run(task.context, part);
-    return;
-  }
-  t_.side_task = task;
-  t_.next_tile.store(0, std::memory_order_relaxed);
-  team_.run(
-      [](void* self, unsigned) {
-        auto& map = *static_cast<MapIntegrator*>(self);
-        const MapSideTask& side = map.t_.side_task;
-        for (std::uint32_t i = map.t_.next_tile.fetch_add(1, std::memory_order_relaxed);
-             i < side.parts; i = map.t_.next_tile.fetch_add(1, std::memory_order_relaxed)) {
-          side.run(side.context, i);
-        }
-      },
-      this);
-  t_.side_task = MapSideTask{};
+  t_.team_depth = nullptr;
+  team_ = nullptr;
 }
 
 }  // namespace dynamap::detail

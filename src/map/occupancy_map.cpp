@@ -55,8 +55,7 @@ bool config_valid(const OccupancyMapConfig& c) noexcept {
     // Half extents up to 1000 voxels keep the whole local region far inside the key range.
     if (c.local_half_extent[a] > 1000.f * c.resolution) return false;
   }
-  return (c.threads == 1 || c.carve_tiles > 0) &&
-         c.helper_first_cpu + c.threads - 2 <= kMaxCpuIndex;
+  return true;
 }
 
 // Blocks per axis of the dense per-frame grid over the local region, +1 block margin each side.
@@ -85,10 +84,7 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   const std::array<std::int32_t, 3> grid_dim = local_grid_dims(c);
   const std::size_t cells = local_grid_cells(c);
   if (c.carve_tiles > 0 && cells > kMaxTileCells) return Status::kInvalidArgument;
-  if (const Status s = integrator_.start_team(c); !ok(s)) {
-    initialized_ = false;
-    return s;
-  }
+  if (integrator_.frame_open()) return Status::kInvalidArgument;  // end_integration() first
 
   params_.config = c;
   params_.resolution = c.resolution;
@@ -280,8 +276,22 @@ Status OccupancyMap::set_log_odds(const Eigen::Vector3f& p, float value) noexcep
 // Integration: the input is checked here; the integrator does the work.
 
 Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& cam,
-                               const Pose& T_map_camera, Stamp stamp, SideTask side) noexcept {
+                               const Pose& T_map_camera, Stamp stamp, TaskTeam* team) noexcept {
+  SoloTeam solo;
+  TaskTeam& t = team != nullptr ? *team : solo;
+  const Status s = begin_integration(depth, cam, T_map_camera, stamp, t);
+  if (!ok(s)) return s;
+  t.run([](void* map, unsigned member) { static_cast<OccupancyMap*>(map)->carve_share(member); },
+        this);
+  end_integration();
+  return Status::kOk;
+}
+
+Status OccupancyMap::begin_integration(const DepthView& depth, const CameraIntrinsics& cam,
+                                       const Pose& T_map_camera, Stamp stamp,
+                                       TaskTeam& team) noexcept {
   if (!initialized_) return Status::kNotInitialized;
+  if (integrator_.frame_open()) return Status::kInvalidArgument;
   if (const Status s = validate_depth(depth, cam); !ok(s)) return s;
   if (cam.width > kMaxImageWidth || cam.height > kMaxImageHeight) return Status::kWrongSize;
   if (!finite_positive(cam.fx) || !finite_positive(cam.fy) || !std::isfinite(cam.cx) ||
@@ -292,20 +302,9 @@ Status OccupancyMap::integrate(const DepthView& depth, const CameraIntrinsics& c
   // Keep the local region well inside the key range.
   if (const Status s = check_pose_range(T_map_camera); !ok(s)) return s;
   if (store_.frames() > 0 && stamp <= last_stamp_) return Status::kTimeNotIncreasing;
-  if (side.run != nullptr && (side.parts < 1 || side.parts > SideTask::kMaxParts)) {
-    return Status::kInvalidArgument;
-  }
   // Input accepted: from here on the frame always completes.
   last_stamp_ = stamp;
-  integrator_.integrate(depth, cam, T_map_camera, side);
-  return Status::kOk;
-}
-
-Status OccupancyMap::run_on_team(const SideTask& task) noexcept {
-  if (task.run == nullptr || task.parts < 1 || task.parts > SideTask::kMaxParts) {
-    return Status::kInvalidArgument;
-  }
-  integrator_.run_on_team(task);
+  integrator_.begin(depth, cam, T_map_camera, team);
   return Status::kOk;
 }
 

@@ -21,7 +21,8 @@ namespace {
 
 using namespace param_rows;  // NOLINT(google-build-using-namespace): U, C, X, kOpen, ...
 
-// The pipeline's own fields (camera, ground, history age, baseline, budgets), in table order;
+// The pipeline's own fields (camera, ground, history age, baseline, budgets, team), in table
+// order;
 // kOwnHead, kOwnClean and kOwnTail below say where each slice goes.
 constexpr Param<PipelineConfig> kOwn[] = {
     // clang-format off
@@ -49,6 +50,10 @@ constexpr Param<PipelineConfig> kOwn[] = {
     {DYNAMAP_PARAM(PipelineConfig, budgets.adaptive_stride), U, "", 0, 1, kClosed, kClosed, "coarsen the map's pixel stride when the occupancy stage overruns"},
     {DYNAMAP_PARAM(PipelineConfig, budgets.max_pixel_stride), C, "px", 1, kMaxImageWidth, kClosed, kClosed, "coarsest stride the adaptive mode may use"},
     {DYNAMAP_PARAM(PipelineConfig, budgets.restore_fraction), X, "", 0, 1, kOpen, kOpen, "restore a finer stride below this share of the budget"},
+    // The thread team.
+    {DYNAMAP_PARAM(PipelineConfig, team.members), C, "", 1, kMaxTeamMembers, kClosed, kClosed, "threads working on a frame, the caller included (> 1 needs map.carve_tiles > 0)"},
+    {DYNAMAP_PARAM(PipelineConfig, team.helper_fifo_priority), X, "", 0, 99, kClosed, kClosed, "SCHED_FIFO priority of the team's helper threads (0: the policy of the thread calling init())"},
+    {DYNAMAP_PARAM(PipelineConfig, team.helper_first_cpu), X, "", -1, kMaxCpuIndex, kClosed, kClosed, "pin helper m to CPU helper_first_cpu + m - 1 (-1: no pinning)"},
     // clang-format on
 };
 static_assert(kStageCount == 7, "every stage has a budgets.stage_ns.<stage> row in the table");

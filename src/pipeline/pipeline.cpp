@@ -41,7 +41,8 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   // Stages validate their own configuration; the first refusal is reported. The camera size
   // and the ground height are the pipeline's fields, handed to the stages that need them.
   const float floor_top = config.ground_height + config.refiner.floor_margin;
-  Status s = map_.init(config.map);
+  Status s = start_team(config.team);
+  if (ok(s)) s = map_.init(config.map);
   if (ok(s)) s = detector_.init(config.detector);
   if (ok(s)) s = fragments_.init(config.fragments, floor_top);
   if (ok(s)) s = refiner_.init(config.refiner, config.ground_height);
@@ -59,6 +60,11 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   }
   if (!ok(s)) {
     initialized_ = false;
+    // A thread the OS refused is the only refusal validate() cannot foresee.
+    if (s == Status::kPermissionDenied || s == Status::kSystemError) {
+      if (error != nullptr) *error = ConfigError{s, "team", "the OS refused a helper thread"};
+      return s;
+    }
     // validate() accepts only what every stage accepts (test_parameters): this is a bug.
     if (error != nullptr) {
       *error = ConfigError{s, "pipeline", "a stage refused a configuration validate() accepted"};
@@ -78,6 +84,21 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   reset_timing();
   initialized_ = true;
   return Status::kOk;
+}
+
+Status Pipeline::start_team(const TeamConfig& c) noexcept {
+  if (team_.size() == static_cast<unsigned>(c.members) &&
+      team_options_.helper_fifo_priority == c.helper_fifo_priority &&
+      team_options_.helper_first_cpu == c.helper_first_cpu) {
+    return Status::kOk;
+  }
+  team_.stop();
+  platform::ThreadOptions options{};
+  options.name = "dynamap-team";
+  options.fifo_priority = c.helper_fifo_priority;
+  options.cpu = c.helper_first_cpu;
+  team_options_ = c;
+  return team_.start(static_cast<unsigned>(c.members), options);
 }
 
 void Pipeline::reset_timing() noexcept {
@@ -114,11 +135,14 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   FrameClock clock;
   clock.start = clock.prev = clock_();
   FrameWork work;
-  // With map threads, detection runs on the map's team while it carves: it reads only the frame
-  // and its own state, so the outputs are the same; its stage time is then its own duration,
-  // inside the occupancy stage's (docs/pipeline.md, "Map threads").
-  DetectionJob job{this, &frame, &work, {}, Status::kOk};
-  const bool on_team = config_.map.threads > 1;
+  // With a team, detection runs beside the map's carving: it reads only the frame and its own
+  // state, so the outputs are the same; its stage time is then its own duration, inside the
+  // occupancy stage's (docs/pipeline.md, "Threads").
+  DetectionJob job{};
+  job.pipeline = this;
+  job.frame = &frame;
+  job.work = &work;
+  const bool on_team = team_.size() > 1;
   const Status map_status = integrate(frame, work, on_team ? &job : nullptr);
   if (!ok(map_status)) return reject(frame, map_status, out);
   lap(Stage::kOccupancy, clock);
@@ -146,7 +170,7 @@ Status Pipeline::process(const Frame& frame, FrameOutput& out) noexcept {
   lap(Stage::kCleaning, clock);
   // Prediction for dynamic tracks, after the far-field layer has taken this frame's far pixels.
   const std::size_t n_dyn = collect_dynamic(frame);
-  const FarFieldLayer* far = update_far_field(frame, n_dyn, on_team, work);
+  const FarFieldLayer* far = update_far_field(frame, n_dyn, work);
   lap(Stage::kFarField, clock);
   out.num_predictions = predict(n_dyn, far, work, out);
   work.predictions = out.num_predictions;
@@ -169,29 +193,43 @@ void Pipeline::record_stage(Stage stage, std::uint64_t ns, FrameClock& clock) no
   counters_.stage_overruns += st.overruns() - overruns_before;
 }
 
-void Pipeline::detect_on_team(void* job, unsigned part) noexcept {
-  auto& j = *static_cast<DetectionJob*>(job);
-  Pipeline& p = *j.pipeline;
-  const std::uint64_t start = p.clock_();
+void Pipeline::detect_part(DetectionJob& job, unsigned part) noexcept {
+  const std::uint64_t start = clock_();
   if (part == 0) {
-    p.detect_boxes(*j.frame, *j.work);
+    detect_boxes(*job.frame, *job.work);
   } else {
-    j.ever_free_status =
-        p.ever_free_.integrate(j.frame->depth, p.config_.camera, j.frame->T_map_camera);
+    job.ever_free_status =
+        ever_free_.integrate(job.frame->depth, config_.camera, job.frame->T_map_camera);
   }
-  const std::uint64_t end = p.clock_();
-  j.ns[part] = end > start ? end - start : 0;
+  const std::uint64_t end = clock_();
+  job.ns[part] = end > start ? end - start : 0;
+}
+
+/// One member's share of the frame's first team run: detection's parts are claimed first
+/// (longest first: they usually outlast a tile's walk), then the map's tiles.
+void Pipeline::detect_and_carve(void* job, unsigned member) noexcept {
+  auto& j = *static_cast<DetectionJob*>(job);
+  for (std::uint32_t i = j.next_part.fetch_add(1, std::memory_order_relaxed);
+       i < DetectionJob::kParts; i = j.next_part.fetch_add(1, std::memory_order_relaxed)) {
+    j.pipeline->detect_part(j, i);
+  }
+  j.pipeline->map_.carve_share(member);
 }
 
 Status Pipeline::integrate(const Frame& frame, FrameWork& work, DetectionJob* job) noexcept {
   // check_frame() applied the map's own checks, so it does not refuse the frame; if it ever
-  // did, it changed nothing (the side task runs only for an accepted frame), and neither has
-  // any other stage yet.
-  const OccupancyMap::SideTask side =
-      job != nullptr ? OccupancyMap::SideTask{&Pipeline::detect_on_team, job, DetectionJob::kParts}
-                     : OccupancyMap::SideTask{};
-  const Status s =
-      map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp, side);
+  // did, it changed nothing (detection runs only for an accepted frame), and neither has any
+  // other stage yet.
+  Status s = Status::kOk;
+  if (job == nullptr) {
+    s = map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp, &team_);
+  } else {
+    s = map_.begin_integration(frame.depth, config_.camera, frame.T_map_camera, frame.stamp, team_);
+    if (ok(s)) {
+      team_.run(&Pipeline::detect_and_carve, job);
+      map_.end_integration();
+    }
+  }
   if (!ok(s)) return s;
   const IntegrationStats& ms = map_.last_stats();
   work.rays = ms.rays;
@@ -261,11 +299,15 @@ std::size_t Pipeline::collect_dynamic(const Frame& frame) noexcept {
   return n_dyn;
 }
 
-void Pipeline::bin_far_field_on_team(void* pipeline, unsigned part) noexcept {
-  static_cast<Pipeline*>(pipeline)->far_field_.bin_columns(part, kFarFieldMaxBinParts);
+void Pipeline::bin_far_field(void* job, unsigned) noexcept {
+  auto& j = *static_cast<BinJob*>(job);
+  for (std::uint32_t i = j.next_part.fetch_add(1, std::memory_order_relaxed);
+       i < kFarFieldMaxBinParts; i = j.next_part.fetch_add(1, std::memory_order_relaxed)) {
+    j.pipeline->far_field_.bin_columns(i, kFarFieldMaxBinParts);
+  }
 }
 
-const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t n_dyn, bool on_team,
+const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t n_dyn,
                                                 FrameWork& work) noexcept {
   if (!config_.far_field.enabled) return nullptr;
   // The dynamic tracks' pixels are not walls. Walkers not (yet) labelled dynamic are kept out by
@@ -282,11 +324,15 @@ const FarFieldLayer* Pipeline::update_far_field(const Frame& frame, std::size_t 
                work)) {
     return nullptr;
   }
-  // With map threads its column binning is shared by the map's team; the grid is written in
-  // column order after, so the layer is the same for every thread count.
-  static_assert(kFarFieldMaxBinParts <= OccupancyMap::SideTask::kMaxParts);
-  const OccupancyMap::SideTask bin{&Pipeline::bin_far_field_on_team, this, kFarFieldMaxBinParts};
-  if (!on_team || !ok(map_.run_on_team(bin))) far_field_.bin_columns(0, 1);
+  // With a team its column binning is shared by the members; the grid is written in column
+  // order after, so the layer is the same for every thread count.
+  if (team_.size() > 1) {
+    BinJob job{};
+    job.pipeline = this;
+    team_.run(&Pipeline::bin_far_field, &job);
+  } else {
+    far_field_.bin_columns(0, 1);
+  }
   far_field_.finish_update();
   return &far_field_;
 }

@@ -95,10 +95,10 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
             "map.local_half_extent",
             "too large for tiled carving: the local block grid must have at most kMaxTileCells "
             "(4096) cells when map.carve_tiles > 0");
-  k.require(m.threads == 1 || m.carve_tiles > 0, "map.threads",
+  k.require(c.team.members == 1 || m.carve_tiles > 0, "team.members",
             "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
-  k.require(m.helper_first_cpu + m.threads - 2 <= kMaxCpuIndex, "map.helper_first_cpu",
-            "the last helper's CPU (helper_first_cpu + threads - 2) must be <= 1023");
+  k.require(c.team.helper_first_cpu + c.team.members - 2 <= kMaxCpuIndex, "team.helper_first_cpu",
+            "the last helper's CPU (helper_first_cpu + members - 2) must be <= 1023");
   k.require(c.detector.d_max > c.detector.d_min, "detector.d_max", "must be > detector.d_min");
   k.require(!c.budgets.adaptive_stride || c.budgets.max_pixel_stride >= m.pixel_stride,
             "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");

@@ -14,14 +14,11 @@
 #include <utility>
 #include <vector>
 
-#include <dirent.h>
-#include <sched.h>
-#include <sys/types.h>
-
 #include <gtest/gtest.h>
 
 #include "alloc_guard.hpp"
 #include "dynamap/map/occupancy_map.hpp"
+#include "dynamap/platform/worker_team.hpp"
 
 namespace dynamap {
 namespace {
@@ -739,7 +736,7 @@ TEST(OccupancyMap, WorkCapsBoundRaysAndVisits) {
 
 // ---- real-time: no allocation after init ----------------------------------------------------
 
-void check_no_allocation(const OccupancyMapConfig& cfg) {
+void check_no_allocation(const OccupancyMapConfig& cfg, TaskTeam* team = nullptr) {
   auto map = make_map(cfg);
   const CameraIntrinsics cam = small_camera();
   Scene scene = wall_scene(3.03f);
@@ -751,7 +748,7 @@ void check_no_allocation(const OccupancyMapConfig& cfg) {
   {
     test::AllocationGuard guard;
     for (int i = 0; i < 3; ++i) {
-      EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(i + 1) * kFrameNs),
+      EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(i + 1) * kFrameNs, team),
                 Status::kOk);
     }
     const Vec3 p(3.05f, 0.05f, 1.05f);
@@ -1057,10 +1054,21 @@ TEST(OccupancyMap, EarlyStopRerunsAreBitIdentical) {
 // ---- tiled carving on a worker team ----------------------------------------------------------
 
 /// integrate_walk()'s flight, also hashing the set of voxels each frame updated (hit or miss).
+/// A started team of `members` threads (the caller included), as the pipeline lends the map.
+std::unique_ptr<platform::WorkerTeam> make_team(unsigned members) {
+  auto team = std::make_unique<platform::WorkerTeam>();
+  EXPECT_EQ(team->start(members, platform::ThreadOptions{}), Status::kOk);
+  return team;
+}
+
+/// A hash of every frame's stats, updated voxels and map of a walk through the regression
+/// room, integrated on a team of `threads` members.
 std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int frames,
+                                          unsigned threads = 1,
                                           OccupancyMap::WorkerHook hook = nullptr,
                                           bool backdrop = true) {
   auto map = make_map(cfg);
+  const auto team = make_team(threads);
   OccupancyMap::set_worker_hook(hook);
   const CameraIntrinsics cam = small_camera(320, 240);
   const Scene scene = regression_room(backdrop);
@@ -1070,7 +1078,7 @@ std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int fra
     const Pose pose = make_pose(Vec3(-1.5f + 2.5f * s, -0.8f + 1.2f * s, 1.1f + 0.3f * s),
                                 -1.2f + 4.0f * s, 0.15f * std::sin(7.f * s), 0.1f * s);
     const DepthImage img = render(scene, cam, pose);
-    EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs),
+    EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs, team.get()),
               Status::kOk);
     const IntegrationStats& st = map->last_stats();
     for (std::size_t x : {st.rays, st.rays_dropped, st.voxel_visits, st.voxel_updates, st.hits,
@@ -1097,9 +1105,8 @@ TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
       cfg.free_ray_early_stop = early_stop;
       cfg.carve_tiles = tiles;
       const std::uint64_t one = integrate_walk_with_updates(cfg, 12);
-      for (int threads = 2; threads <= kMaxMapThreads; ++threads) {
-        cfg.threads = threads;
-        EXPECT_EQ(integrate_walk_with_updates(cfg, 12), one) << threads << " threads";
+      for (unsigned threads = 2; threads <= kMaxTeamMembers; ++threads) {
+        EXPECT_EQ(integrate_walk_with_updates(cfg, 12, threads), one) << threads << " threads";
       }
     }
   }
@@ -1109,9 +1116,8 @@ TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
     OccupancyMapConfig open;
     open.carve_tiles = 4;
     open.no_return_free_depth = no_return;
-    const std::uint64_t open_one = integrate_walk_with_updates(open, 12, nullptr, false);
-    open.threads = 2;
-    EXPECT_EQ(integrate_walk_with_updates(open, 12, nullptr, false), open_one) << no_return;
+    const std::uint64_t open_one = integrate_walk_with_updates(open, 12, 1, nullptr, false);
+    EXPECT_EQ(integrate_walk_with_updates(open, 12, 2, nullptr, false), open_one) << no_return;
   }
   // With a tiny pool (eviction every frame, blocks that cannot be allocated) and the visit cap.
   OccupancyMapConfig tiny;
@@ -1119,16 +1125,14 @@ TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
   tiny.max_blocks = 96;
   tiny.max_voxel_visits_per_frame = 40'000;
   const std::uint64_t one = integrate_walk_with_updates(tiny, 12);
-  tiny.threads = 3;
-  EXPECT_EQ(integrate_walk_with_updates(tiny, 12), one);
+  EXPECT_EQ(integrate_walk_with_updates(tiny, 12, 3), one);
   // With the ray cap below the sampled pixels, pass 1 runs on one thread (the cap is a
   // pixel-order rule); pass 2 still on the team.
   OccupancyMapConfig capped;
   capped.carve_tiles = 4;
   capped.max_rays_per_frame = 2000;
   const std::uint64_t capped_one = integrate_walk_with_updates(capped, 6);
-  capped.threads = 2;
-  EXPECT_EQ(integrate_walk_with_updates(capped, 6), capped_one);
+  EXPECT_EQ(integrate_walk_with_updates(capped, 6, 2), capped_one);
 }
 
 TEST(OccupancyMap, PassOneOnTheTeamMatchesPassOneOnOneThread) {
@@ -1144,13 +1148,12 @@ TEST(OccupancyMap, PassOneOnTheTeamMatchesPassOneOnOneThread) {
       OccupancyMapConfig team;
       team.free_ray_early_stop = early_stop;
       team.carve_tiles = tiles;
-      team.threads = 2;
       team.max_rays_per_frame = kSamples;
       OccupancyMapConfig one_thread = team;
       one_thread.max_rays_per_frame = kSamples - 1;
-      EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
-      team.threads = 3;
-      EXPECT_EQ(integrate_walk_with_updates(team, 8), integrate_walk_with_updates(one_thread, 8));
+      const std::uint64_t reference = integrate_walk_with_updates(one_thread, 8, 2);
+      EXPECT_EQ(integrate_walk_with_updates(team, 8, 2), reference);
+      EXPECT_EQ(integrate_walk_with_updates(team, 8, 3), reference);
     }
   }
 }
@@ -1166,15 +1169,15 @@ TEST(OccupancyMap, TiledCarvingChangesOnlyTheEarlyStoppedMisses) {
     one_walk.free_ray_early_stop = early_stop;
     OccupancyMapConfig tiled = one_walk;
     tiled.carve_tiles = 4;
-    tiled.threads = 2;
     auto a = make_map(one_walk);
     auto b = make_map(tiled);
+    const auto team = make_team(2);
     const CameraIntrinsics cam = small_camera(320, 240);
     const Scene scene = regression_room();
     const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.05f, 0.f);
     const DepthImage img = render(scene, cam, pose);
     ASSERT_EQ(a->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
-    ASSERT_EQ(b->integrate(img.view, cam, pose, kFrameNs), Status::kOk);
+    ASSERT_EQ(b->integrate(img.view, cam, pose, kFrameNs, team.get()), Status::kOk);
     std::set<OccupancyMap::VoxelKey> hits_a, hits_b, misses_a, misses_b;
     a->for_each_updated_last_frame(
         [&](OccupancyMap::VoxelKey k, bool hit) { (hit ? hits_a : misses_a).insert(k); });
@@ -1211,191 +1214,89 @@ TEST(OccupancyMap, ASlowWorkerDelaysTheFrameButNeverChangesIt) {
   OccupancyMapConfig cfg;
   cfg.carve_tiles = 4;
   const std::uint64_t one = integrate_walk_with_updates(cfg, 8);
-  cfg.threads = 2;
   g_slow_member_calls = 0;
-  EXPECT_EQ(integrate_walk_with_updates(cfg, 8, &delay_member_one), one);
+  EXPECT_EQ(integrate_walk_with_updates(cfg, 8, 2, &delay_member_one), one);
   EXPECT_EQ(g_slow_member_calls.load(), 8);  // once per frame: the team did run the frames
 }
 
-TEST(OccupancyMap, ThreadsAndTilesAreValidated) {
+TEST(OccupancyMap, TilesAreValidated) {
   auto map = std::make_unique<OccupancyMap>();
   OccupancyMapConfig cfg;
-  for (const auto& [tiles, threads] : std::vector<std::pair<int, int>>{
-           {-1, 1}, {kMaxCarveTiles + 1, 1}, {4, 0}, {4, kMaxMapThreads + 1}, {0, 2}}) {
+  for (const int tiles : {-1, kMaxCarveTiles + 1}) {
     cfg.carve_tiles = tiles;
-    cfg.threads = threads;
-    EXPECT_EQ(map->init(cfg), Status::kInvalidArgument) << tiles << " " << threads;
+    EXPECT_EQ(map->init(cfg), Status::kInvalidArgument) << tiles;
   }
   cfg.carve_tiles = 4;
-  cfg.threads = 2;
   cfg.local_half_extent = Vec3(20.f, 20.f, 5.f);  // a local grid beyond kMaxTileCells
   EXPECT_EQ(map->init(cfg), Status::kInvalidArgument);
   cfg.local_half_extent = OccupancyMapConfig{}.local_half_extent;
   EXPECT_EQ(map->init(cfg), Status::kOk);
-  cfg.threads = 3;  // re-init restarts the team with another size
-  EXPECT_EQ(map->init(cfg), Status::kOk);
-  cfg.threads = 1;
   cfg.carve_tiles = 0;
   EXPECT_EQ(map->init(cfg), Status::kOk);
 }
 
-/// Counts the runs of each part of a task handed to the map's team.
-struct PartCounter {
-  std::array<std::atomic<int>, OccupancyMap::SideTask::kMaxParts> runs{};
-  static void run(void* self, unsigned part) noexcept {
-    static_cast<PartCounter*>(self)->runs[part].fetch_add(1, std::memory_order_relaxed);
+/// Counts, per member, the other work a team's owner runs beside the carving.
+struct OtherWork {
+  OccupancyMap* map = nullptr;
+  std::array<std::atomic<int>, kMaxTeamMembers> runs{};
+  static void run(void* self, unsigned member) {
+    auto& w = *static_cast<OtherWork*>(self);
+    w.runs[member].fetch_add(1, std::memory_order_relaxed);
+    w.map->carve_share(member);
   }
 };
 
-/// Two maps with the same tiles and threads: one is given tasks, the other is the reference.
-std::pair<std::unique_ptr<OccupancyMap>, std::unique_ptr<OccupancyMap>> map_pair(int tiles,
-                                                                                 int threads) {
-  OccupancyMapConfig cfg;
-  cfg.carve_tiles = tiles;
-  cfg.threads = threads;
-  return {make_map(cfg), make_map(cfg)};
-}
-
-// integrate()'s side task (the pipeline's detection on the map's team) runs exactly once per
-// accepted frame, never for a refused one, and changes nothing in the map.
-TEST(OccupancyMap, SideTaskRunsOnceForEachAcceptedFrameOnly) {
+// The three steps (how the pipeline runs detection beside the carving) give the map integrate()
+// gives, on one walk or tiles and any team; a refused begin opens no frame.
+TEST(OccupancyMap, IntegrationInStepsMatchesIntegrate) {
   const CameraIntrinsics cam = small_camera(320, 240);
   const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.f, 0.f);
   const DepthImage img = render(regression_room(), cam, pose);
-  for (const auto& [tiles, threads] : {std::pair{0, 1}, {4, 1}, {4, 2}, {4, 4}}) {
+  for (const auto& [tiles, threads] : {std::pair{0, 1u}, {4, 1u}, {4, 2u}, {4, 4u}}) {
     SCOPED_TRACE(testing::Message() << "tiles " << tiles << " threads " << threads);
-    auto [with, without] = map_pair(tiles, threads);
-    PartCounter count;
-    const OccupancyMap::SideTask side{&PartCounter::run, &count, 3};
+    OccupancyMapConfig cfg;
+    cfg.carve_tiles = tiles;
+    auto steps = make_map(cfg);
+    auto whole = make_map(cfg);
+    const auto team = make_team(threads);
+    OtherWork work;
+    work.map = steps.get();
     for (int f = 1; f <= 3; ++f) {
       const Stamp stamp = static_cast<Stamp>(f) * kFrameNs;
-      ASSERT_EQ(with->integrate(img.view, cam, pose, stamp, side), Status::kOk);
-      ASSERT_EQ(without->integrate(img.view, cam, pose, stamp), Status::kOk);
-      for (unsigned p = 0; p < 3; ++p) EXPECT_EQ(count.runs[p].load(), f);
+      ASSERT_EQ(steps->begin_integration(img.view, cam, pose, stamp, *team), Status::kOk);
+      EXPECT_EQ(steps->begin_integration(img.view, cam, pose, stamp + 1, *team),
+                Status::kInvalidArgument);                    // one frame at a time
+      EXPECT_EQ(steps->init(cfg), Status::kInvalidArgument);  // not while a frame is open
+      team->run(&OtherWork::run, &work);
+      steps->end_integration();
+      ASSERT_EQ(whole->integrate(img.view, cam, pose, stamp), Status::kOk);
+      EXPECT_EQ(steps->checksum(), whole->checksum());
+      EXPECT_EQ(steps->last_stats().voxel_updates, whole->last_stats().voxel_updates);
+      for (unsigned m = 0; m < threads; ++m) EXPECT_EQ(work.runs[m].load(), f);
     }
-    EXPECT_EQ(with->integrate(img.view, cam, pose, kFrameNs, side), Status::kTimeNotIncreasing);
-    DepthView no_pixels = img.view;
-    no_pixels.data = nullptr;
-    EXPECT_NE(with->integrate(no_pixels, cam, pose, 9 * kFrameNs, side), Status::kOk);
-    OccupancyMap::SideTask too_many = side;
-    too_many.parts = OccupancyMap::SideTask::kMaxParts + 1;
-    EXPECT_EQ(with->integrate(img.view, cam, pose, 9 * kFrameNs, too_many),
-              Status::kInvalidArgument);
-    for (unsigned p = 0; p < 3; ++p) {
-      EXPECT_EQ(count.runs[p].load(), 3) << "a refused frame must not run the side task";
-    }
-    EXPECT_EQ(count.runs[3].load(), 0);
-    EXPECT_EQ(with->checksum(), without->checksum());
+    // Refused input opens nothing; stray steps without an open frame change nothing.
+    EXPECT_EQ(steps->begin_integration(img.view, cam, pose, kFrameNs, *team),
+              Status::kTimeNotIncreasing);
+    steps->carve_share(0);
+    steps->end_integration();
+    EXPECT_EQ(steps->checksum(), whole->checksum());
+    EXPECT_EQ(steps->init(cfg), Status::kOk);
   }
-}
-
-// run_on_team() (the pipeline's far-field binning) runs each part once and leaves the map alone.
-TEST(OccupancyMap, RunOnTeamRunsEachPartOnceAndLeavesTheMapAlone) {
-  const CameraIntrinsics cam = small_camera(320, 240);
-  const Pose pose = make_pose(Vec3(-1.f, -0.5f, 1.2f), 0.3f, 0.f, 0.f);
-  const DepthImage img = render(regression_room(), cam, pose);
-  for (const auto& [tiles, threads] : {std::pair{0, 1}, {4, 2}, {4, 4}}) {
-    SCOPED_TRACE(testing::Message() << "tiles " << tiles << " threads " << threads);
-    auto [with, without] = map_pair(tiles, threads);
-    PartCounter count;
-    for (int f = 1; f <= 3; ++f) {
-      const Stamp stamp = static_cast<Stamp>(f) * kFrameNs;
-      ASSERT_EQ(with->integrate(img.view, cam, pose, stamp), Status::kOk);
-      ASSERT_EQ(without->integrate(img.view, cam, pose, stamp), Status::kOk);
-      ASSERT_EQ(with->run_on_team({&PartCounter::run, &count, OccupancyMap::SideTask::kMaxParts}),
-                Status::kOk);
-      for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), f);
-    }
-    EXPECT_EQ(with->run_on_team({&PartCounter::run, &count, 0}), Status::kInvalidArgument);
-    EXPECT_EQ(with->run_on_team({&PartCounter::run, &count, OccupancyMap::SideTask::kMaxParts + 1}),
-              Status::kInvalidArgument);
-    EXPECT_EQ(with->run_on_team({nullptr, &count, 1}), Status::kInvalidArgument);
-    for (const auto& runs : count.runs) EXPECT_EQ(runs.load(), 3) << "a refused task ran";
-    // The team still integrates afterwards, and the tasks changed nothing in the map.
-    ASSERT_EQ(with->integrate(img.view, cam, pose, 4 * kFrameNs), Status::kOk);
-    ASSERT_EQ(without->integrate(img.view, cam, pose, 4 * kFrameNs), Status::kOk);
-    EXPECT_EQ(with->checksum(), without->checksum());
-  }
-}
-
-/// Thread ids of this process's threads named `name` (empty when names are not visible).
-std::vector<pid_t> threads_named(const char* name) {
-  std::vector<pid_t> ids;
-  DIR* dir = opendir("/proc/self/task");
-  if (dir == nullptr) return ids;
-  while (const dirent* e = readdir(dir)) {
-    if (e->d_name[0] == '.') continue;
-    const std::string comm_path = std::string("/proc/self/task/") + e->d_name + "/comm";
-    char comm[32] = {};
-    if (FILE* f = std::fopen(comm_path.c_str(), "r")) {
-      if (std::fgets(comm, sizeof(comm), f) != nullptr &&
-          std::strncmp(comm, name, std::strlen(name)) == 0) {
-        ids.push_back(static_cast<pid_t>(std::atoi(e->d_name)));
-      }
-      std::fclose(f);
-    }
-  }
-  closedir(dir);
-  return ids;
-}
-
-// map.helper_first_cpu pins helper m to CPU first + m - 1; map.helper_fifo_priority makes the
-// helpers SCHED_FIFO (or init() reports that the process may not); bad values are refused.
-TEST(OccupancyMap, HelperThreadOptionsAreValidatedAndApplied) {
-  OccupancyMapConfig bad;
-  bad.carve_tiles = 4;
-  bad.threads = 2;
-  bad.helper_fifo_priority = 100;
-  auto map = std::make_unique<OccupancyMap>();  // 13 MB: not on the stack
-  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
-  bad.helper_fifo_priority = 0;
-  bad.helper_first_cpu = -2;
-  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
-  bad.helper_first_cpu = kMaxCpuIndex;  // one helper on CPU 1023 is fine, two reach 1024
-  bad.threads = 3;
-  EXPECT_EQ(map->init(bad), Status::kInvalidArgument);
-
-  OccupancyMapConfig cfg;
-  cfg.carve_tiles = 4;
-  cfg.threads = 2;
-  cfg.helper_first_cpu = 0;
-  auto pinned = make_map(cfg);  // asserts kOk: CPU 0 exists everywhere
-  const std::vector<pid_t> helpers = threads_named("dynamap-map");
-  if (helpers.empty()) GTEST_SKIP() << "thread names not visible here (emulator?)";
-  ASSERT_EQ(helpers.size(), 1u);
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  ASSERT_EQ(sched_getaffinity(helpers[0], sizeof(set), &set), 0);
-  EXPECT_EQ(CPU_COUNT(&set), 1);
-  EXPECT_TRUE(CPU_ISSET(0, &set));
-
-  cfg.helper_first_cpu = -1;
-  cfg.helper_fifo_priority = 10;
-  const Status fifo = pinned->init(cfg);  // restarts the team with the new options
-  if (fifo == Status::kPermissionDenied) GTEST_SKIP() << "no permission for SCHED_FIFO here";
-  ASSERT_EQ(fifo, Status::kOk);
-  const std::vector<pid_t> fifo_helpers = threads_named("dynamap-map");
-  ASSERT_EQ(fifo_helpers.size(), 1u);
-  EXPECT_EQ(sched_getscheduler(fifo_helpers[0]), SCHED_FIFO);
-  OccupancyMapConfig one_thread;
-  one_thread.carve_tiles = 4;
-  EXPECT_EQ(integrate_walk_with_updates(cfg, 2), integrate_walk_with_updates(one_thread, 2));
 }
 
 TEST(OccupancyMap, NoHeapAllocationWithTwoThreads) {
   OccupancyMapConfig cfg;
   cfg.carve_tiles = 4;
-  cfg.threads = 2;
-  check_no_allocation(cfg);
+  const auto team = make_team(2);
+  check_no_allocation(cfg, team.get());
 }
 
-TEST(OccupancyMap, DestroyedRightAfterAFrameOnTheTeamJoinsCleanly) {
+TEST(OccupancyMap, TeamDestroyedRightAfterAFrameJoinsCleanly) {
   // The team's helpers are asleep or spinning between frames; destruction wakes and joins them.
   for (int i = 0; i < 3; ++i) {
     OccupancyMapConfig cfg;
     cfg.carve_tiles = 4;
-    cfg.threads = kMaxMapThreads;
-    EXPECT_NE(integrate_walk_with_updates(cfg, 1), 0u);
+    EXPECT_NE(integrate_walk_with_updates(cfg, 1, kMaxTeamMembers), 0u);
   }
 }
 

@@ -1,11 +1,18 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <string>
 #include <utility>
 #include <vector>
+
+#include <dirent.h>
+#include <sched.h>
+#include <sys/types.h>
 
 #include <gtest/gtest.h>
 
@@ -415,7 +422,7 @@ struct StateSnapshot {
 };
 
 /// Every bad input gets its Status and leaves the map, the tracks and the detections as they
-/// were; with map threads the detection would run on the map's team, so both are checked.
+/// were; with team threads the detection would run beside the map's carving, so both are checked.
 void expect_bad_inputs_change_nothing(const PipelineConfig& cfg) {
   auto p = std::make_unique<Pipeline>();
   auto out = std::make_unique<FrameOutput>();
@@ -486,10 +493,10 @@ TEST(Pipeline, EveryBadInputGetsItsStatusAndChangesNothing) {
   expect_bad_inputs_change_nothing(small_camera_config());
 }
 
-TEST(Pipeline, EveryBadInputChangesNothingWithMapThreads) {
+TEST(Pipeline, EveryBadInputChangesNothingWithTeamThreads) {
   PipelineConfig cfg = small_camera_config();
   cfg.map.carve_tiles = 4;
-  cfg.map.threads = 2;
+  cfg.team.members = 2;
   expect_bad_inputs_change_nothing(cfg);
 }
 
@@ -654,7 +661,7 @@ TEST(Pipeline, FastAndScalarHistogramKernelsGiveIdenticalOutputs) {
 }
 
 // A fake clock that advances a fixed step at every read makes the budget logic deterministic.
-// Atomic: with map threads the pipeline reads it on the map's team too, at once.
+// Atomic: with team threads the pipeline reads it on the team's helpers too, at once.
 std::atomic<std::uint64_t> g_fake_now{0};
 std::uint64_t g_fake_step = 0;
 std::uint64_t fake_clock() {
@@ -682,16 +689,16 @@ TEST(PipelineBudget, OverrunsAreCountedPerStageAndPerFrame) {
   EXPECT_EQ(p->counters().stage_overruns, 10u);
 }
 
-// With map threads the detection runs on the map's team during the carving: its stage time is
+// With team threads the detection runs beside the map's carving: its stage time is
 // its own duration (two clock reads around each of its two parts, two around the annotation
 // after them); the parts are inside the occupancy stage's lap. The parts may run at once, so
 // the two together take 2 or 4 steps of the fake clock.
-TEST(PipelineBudget, DetectionOnTheMapTeamIsTimedInsideTheOccupancyStage) {
+TEST(PipelineBudget, DetectionOnTheTeamIsTimedInsideTheOccupancyStage) {
   auto p = std::make_unique<Pipeline>();
   auto out = std::make_unique<FrameOutput>();
   PipelineConfig cfg = small_camera_config();
   cfg.map.carve_tiles = 4;
-  cfg.map.threads = 2;
+  cfg.team.members = 2;
   ASSERT_EQ(p->init(cfg), Status::kOk);
   g_fake_now = 0;
   g_fake_step = 1000;
@@ -775,11 +782,11 @@ TEST(PipelineWorstCase, ClutterFillsTheDetectorAndTheTracker) {
 namespace dynamap {
 namespace {
 
-// ---- map threads (issue 17) -------------------------------------------------------------------
+// ---- team threads (issue 17) ------------------------------------------------------------------
 
-// Every output of a 120-frame walker run, and the map, bit for bit for 1..4 map threads with
+// Every output of a 120-frame walker run, and the map, bit for bit for 1..4 team threads with
 // tiled carving.
-TEST(Pipeline, MapThreadsGiveBitIdenticalOutputsOver120Frames) {
+TEST(Pipeline, TeamThreadsGiveBitIdenticalOutputsOver120Frames) {
   PipelineConfig cfg = small_camera_config();
   cfg.map.carve_tiles = 4;
   std::vector<float> one;
@@ -787,9 +794,9 @@ TEST(Pipeline, MapThreadsGiveBitIdenticalOutputsOver120Frames) {
   const std::uint64_t one_map = run_walker_trace(cfg, one, 120, &far_hits);
   ASSERT_FALSE(one.empty());
   EXPECT_GT(far_hits, 0u);
-  for (int threads = 2; threads <= kMaxMapThreads; ++threads) {
+  for (int threads = 2; threads <= static_cast<int>(kMaxTeamMembers); ++threads) {
     SCOPED_TRACE(threads);
-    cfg.map.threads = threads;
+    cfg.team.members = threads;
     std::vector<float> trace;
     EXPECT_EQ(run_walker_trace(cfg, trace, 120), one_map);
     ASSERT_EQ(trace.size(), one.size());
@@ -797,12 +804,12 @@ TEST(Pipeline, MapThreadsGiveBitIdenticalOutputsOver120Frames) {
   }
 }
 
-TEST(Pipeline, ZeroHeapAllocationsWithTwoMapThreads) {
+TEST(Pipeline, ZeroHeapAllocationsWithTwoTeamThreads) {
   auto p = std::make_unique<Pipeline>();
   auto out = std::make_unique<FrameOutput>();
   PipelineConfig cfg = small_camera_config();
   cfg.map.carve_tiles = 4;
-  cfg.map.threads = 2;
+  cfg.team.members = 2;
   ASSERT_EQ(p->init(cfg), Status::kOk);
   WalkerScenario s;
   std::vector<Frame> frames;
@@ -825,19 +832,89 @@ TEST(Pipeline, ZeroHeapAllocationsWithTwoMapThreads) {
   EXPECT_EQ(p->counters().frames_processed, 60u);
 }
 
-TEST(PipelineConfig, MapThreadsAndTilesAreValidatedByName) {
+TEST(PipelineConfig, TeamAndTilesAreValidatedByName) {
   PipelineConfig c;
-  c.map.threads = 2;  // without tiles
+  c.team.members = 2;  // without tiles
   ConfigError e = validate(c);
   EXPECT_EQ(e.status, Status::kInvalidArgument);
-  EXPECT_STREQ(e.field, "map.threads");
+  EXPECT_STREQ(e.field, "team.members");
   c.map.carve_tiles = 4;
   EXPECT_TRUE(validate(c).ok());
-  c.map.threads = kMaxMapThreads + 1;
-  EXPECT_STREQ(validate(c).field, "map.threads");
-  c.map.threads = 1;
+  c.team.members = static_cast<int>(kMaxTeamMembers) + 1;
+  EXPECT_STREQ(validate(c).field, "team.members");
+  c.team.members = 0;
+  EXPECT_STREQ(validate(c).field, "team.members");
+  c.team.members = 1;
   c.map.carve_tiles = kMaxCarveTiles + 1;
   EXPECT_STREQ(validate(c).field, "map.carve_tiles");
+}
+
+/// Thread ids of this process's threads named `name` (empty when names are not visible).
+std::vector<pid_t> threads_named(const char* name) {
+  std::vector<pid_t> ids;
+  DIR* dir = opendir("/proc/self/task");
+  if (dir == nullptr) return ids;
+  while (const dirent* e = readdir(dir)) {
+    if (e->d_name[0] == '.') continue;
+    const std::string comm_path = std::string("/proc/self/task/") + e->d_name + "/comm";
+    char comm[32] = {};
+    if (FILE* f = std::fopen(comm_path.c_str(), "r")) {
+      if (std::fgets(comm, sizeof(comm), f) != nullptr &&
+          std::strncmp(comm, name, std::strlen(name)) == 0) {
+        ids.push_back(static_cast<pid_t>(std::atoi(e->d_name)));
+      }
+      std::fclose(f);
+    }
+  }
+  closedir(dir);
+  return ids;
+}
+
+// team.helper_first_cpu pins helper m to CPU first + m - 1; team.helper_fifo_priority makes the
+// helpers SCHED_FIFO (or init() reports that the process may not); bad values are refused by
+// name; a re-init with other options restarts the team.
+TEST(Pipeline, TeamHelperOptionsAreValidatedAndApplied) {
+  PipelineConfig bad = small_camera_config();
+  bad.map.carve_tiles = 4;
+  bad.team.members = 2;
+  bad.team.helper_fifo_priority = 100;
+  EXPECT_STREQ(validate(bad).field, "team.helper_fifo_priority");
+  bad.team.helper_fifo_priority = 0;
+  bad.team.helper_first_cpu = -2;
+  EXPECT_STREQ(validate(bad).field, "team.helper_first_cpu");
+  bad.team.helper_first_cpu = kMaxCpuIndex;  // one helper on CPU 1023 is fine, two reach 1024
+  EXPECT_TRUE(validate(bad).ok());
+  bad.team.members = 3;
+  EXPECT_STREQ(validate(bad).field, "team.helper_first_cpu");
+  auto p = std::make_unique<Pipeline>();
+  EXPECT_EQ(p->init(bad), Status::kInvalidArgument);
+
+  PipelineConfig cfg = small_camera_config();
+  cfg.map.carve_tiles = 4;
+  cfg.team.members = 2;
+  cfg.team.helper_first_cpu = 0;
+  ASSERT_EQ(p->init(cfg), Status::kOk);  // CPU 0 exists everywhere
+  const std::vector<pid_t> helpers = threads_named("dynamap-team");
+  if (helpers.empty()) GTEST_SKIP() << "thread names not visible here (emulator?)";
+  ASSERT_EQ(helpers.size(), 1u);
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  ASSERT_EQ(sched_getaffinity(helpers[0], sizeof(set), &set), 0);
+  EXPECT_EQ(CPU_COUNT(&set), 1);
+  EXPECT_TRUE(CPU_ISSET(0, &set));
+
+  cfg.team.helper_first_cpu = -1;
+  cfg.team.helper_fifo_priority = 10;
+  ConfigError error{};
+  const Status fifo = p->init(cfg, &error);  // restarts the team with the new options
+  if (fifo == Status::kPermissionDenied) {
+    EXPECT_STREQ(error.field, "team");
+    GTEST_SKIP() << "no permission for SCHED_FIFO here";
+  }
+  ASSERT_EQ(fifo, Status::kOk);
+  const std::vector<pid_t> fifo_helpers = threads_named("dynamap-team");
+  ASSERT_EQ(fifo_helpers.size(), 1u);
+  EXPECT_EQ(sched_getscheduler(fifo_helpers[0]), SCHED_FIFO);
 }
 
 }  // namespace

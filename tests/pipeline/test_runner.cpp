@@ -268,7 +268,7 @@ TEST(Runner, ThreeThreadStressLosesNothingButCountedRejections) {
 namespace dynamap {
 namespace {
 
-// ---- map threads (issue 17) -------------------------------------------------------------------
+// ---- team threads (issue 17) ------------------------------------------------------------------
 
 std::atomic<int> g_slow_calls{0};
 void slow_member(unsigned member) {
@@ -277,13 +277,13 @@ void slow_member(unsigned member) {
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
 }
 
-// stop() while a frame is in flight on the map's team (one member is 20 ms slow): the frame
-// completes, stop() returns, the map's helpers are joined with the pipeline, nothing is lost.
-TEST(Runner, StopWhileAFrameIsInFlightOnTheMapTeamIsClean) {
+// stop() while a frame is in flight on the pipeline's team (one member is 20 ms slow): the frame
+// completes, stop() returns, the team's helpers are joined with the pipeline, nothing is lost.
+TEST(Runner, StopWhileAFrameIsInFlightOnTheTeamIsClean) {
   auto p = std::make_unique<Pipeline>();
   PipelineConfig cfg = tiny_config();
   cfg.map.carve_tiles = 4;
-  cfg.map.threads = 2;
+  cfg.team.members = 2;
   ASSERT_EQ(p->init(cfg), Status::kOk);
   OccupancyMap::set_worker_hook(&slow_member);
   g_slow_calls = 0;

@@ -37,10 +37,7 @@ inline constexpr Param<OccupancyMapConfig> kOccupancyMap[] = {
     {DYNAMAP_PARAM(OccupancyMapConfig, max_voxel_visits_per_frame), C, "", 1, kMaxVoxelVisitsPerFrame, kClosed, kClosed, "work cap: voxel steps of all rays per frame"},
     {DYNAMAP_PARAM(OccupancyMapConfig, merge_rays_per_voxel), X, "", 0, 1, kClosed, kClosed, "cast one ray per distinct end voxel instead of one per pixel"},
     {DYNAMAP_PARAM(OccupancyMapConfig, free_ray_early_stop), X, "voxels", 0, kInf, kClosed, kOpen, "stop a free ray after this many voxels an earlier ray marked (0: exact walk)"},
-    {DYNAMAP_PARAM(OccupancyMapConfig, carve_tiles), X, "", 0, kMaxCarveTiles, kClosed, kClosed, "free-space carving in this many image column strips (0: one walk; the map depends on it, not on threads)"},
-    {DYNAMAP_PARAM(OccupancyMapConfig, threads), C, "", 1, kMaxMapThreads, kClosed, kClosed, "threads integrating a frame, the caller included (> 1 needs map.carve_tiles > 0)"},
-    {DYNAMAP_PARAM(OccupancyMapConfig, helper_fifo_priority), X, "", 0, 99, kClosed, kClosed, "SCHED_FIFO priority of the map's helper threads (0: the policy of the thread calling init())"},
-    {DYNAMAP_PARAM(OccupancyMapConfig, helper_first_cpu), X, "", -1, kMaxCpuIndex, kClosed, kClosed, "pin map helper m to CPU helper_first_cpu + m - 1 (-1: no pinning)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, carve_tiles), X, "", 0, kMaxCarveTiles, kClosed, kClosed, "free-space carving in this many image column strips (0: one walk; the map depends on it, not on team.members)"},
     // clang-format on
 };
 static_assert(paths_unique(kOccupancyMap));

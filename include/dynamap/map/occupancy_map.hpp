@@ -47,40 +47,36 @@ class OccupancyMap {
   OccupancyMap(const OccupancyMap&) = delete;
   OccupancyMap& operator=(const OccupancyMap&) = delete;
 
-  /// Validates `config`, empties the map and (re)starts the worker team with config.threads
-  /// members. kInvalidArgument (map unchanged) when inconsistent; a thread creation error as
-  /// platform::WorkerTeam::start() reports it (map not initialised).
+  /// Validates `config` and empties the map. kInvalidArgument (map unchanged) when
+  /// inconsistent or while a frame's integration is open (begin_integration()).
   [[nodiscard]] Status init(const OccupancyMapConfig& config) noexcept;
   /// Cells of the dense per-frame block grid over `config`'s local region (one block margin each
   /// side); tiled carving (carve_tiles > 0) needs at most kMaxTileCells.
   static std::size_t local_grid_cells(const OccupancyMapConfig& config) noexcept;
   /// Tests only: called by each team member (0 = the integrating thread) of every map when it
-  /// starts its share of a frame's carving, e.g. to delay one worker. nullptr (default): none.
+  /// starts its share of a frame's tiled carving, e.g. to delay one worker. nullptr: none.
   using WorkerHook = detail::MapIntegrator::WorkerHook;
   static void set_worker_hook(WorkerHook hook) noexcept;
-
-  /// Work a caller hands to integrate() to run on the map's team while it carves (MapSideTask).
-  using SideTask = MapSideTask;
 
   /// Integrates one depth frame taken at T_map_camera. On any bad input returns its Status and
   /// changes nothing: kOutOfRange when the camera lies beyond max_abs_translation() (see
   /// check_pose_range()). Never fails for lack of space: far blocks are evicted instead.
-  /// `side` (when set) runs each of its parts exactly once if and only if the frame is
-  /// accepted: during the tiled carving as tasks the members claim (before the tiles),
-  /// otherwise after the map's update on the calling thread. integrate() returns after all
-  /// have finished. kInvalidArgument (nothing run or changed) for parts outside 1..kMaxParts.
+  /// `team` (optional, the caller's): the tiled carving (carve_tiles > 0) runs on its members;
+  /// the map is the same for every team. Without one, on the calling thread.
   [[nodiscard]] Status integrate(const DepthView& depth, const CameraIntrinsics& cam,
-                                 const Pose& T_map_camera, Stamp stamp, SideTask side) noexcept;
-  [[nodiscard]] Status integrate(const DepthView& depth, const CameraIntrinsics& cam,
-                                 const Pose& T_map_camera, Stamp stamp) noexcept {
-    return integrate(depth, cam, T_map_camera, stamp, SideTask{});
-  }
+                                 const Pose& T_map_camera, Stamp stamp,
+                                 TaskTeam* team = nullptr) noexcept;
 
-  /// Runs `task`'s parts on the map's team (the calling thread is one of its members), each
-  /// exactly once, and returns when all have finished; without a team (threads 1), in order on
-  /// the calling thread. For other work of a frame, outside integrate(); it must not touch the
-  /// map. kInvalidArgument (nothing run) without a function or for parts outside 1..kMaxParts.
-  [[nodiscard]] Status run_on_team(const SideTask& task) noexcept;
+  /// integrate() in three steps, for a team's owner that runs other work beside the carving
+  /// (the pipeline runs detection): begin_integration() checks the input as integrate() does
+  /// (nothing changed on a refusal; kInvalidArgument while a frame is open) and does the set-up
+  /// and pass 1 on `team`; then every member m of one team.run() calls carve_share(m); then
+  /// end_integration() applies the marks and closes the frame. Query the map only after it.
+  [[nodiscard]] Status begin_integration(const DepthView& depth, const CameraIntrinsics& cam,
+                                         const Pose& T_map_camera, Stamp stamp,
+                                         TaskTeam& team) noexcept;
+  void carve_share(unsigned member) noexcept { integrator_.carve_share(member); }
+  void end_integration() noexcept { integrator_.finish(); }
 
   Occupancy state(const Eigen::Vector3f& p) const noexcept;
   Occupancy state(VoxelKey key) const noexcept;

@@ -9,7 +9,6 @@
 #include <Eigen/Core>
 
 #include "dynamap/core/constants.hpp"
-#include "dynamap/platform/worker_team.hpp"
 
 namespace dynamap {
 
@@ -22,10 +21,6 @@ inline constexpr std::size_t kMaxRaysPerFrame =
 /// pipeline bounds it far lower (kMaxPipelineVoxelVisitsPerFrame).
 inline constexpr std::size_t kMaxVoxelVisitsPerFrame = 32'000'000;
 
-/// Upper bound of OccupancyMapConfig::threads (members of the map's worker team).
-inline constexpr int kMaxMapThreads = static_cast<int>(platform::WorkerTeam::kMaxMembers);
-/// Highest CPU index a map helper may be pinned to (glibc's CPU_SETSIZE - 1).
-inline constexpr int kMaxCpuIndex = 1023;
 /// Upper bound of OccupancyMapConfig::carve_tiles.
 inline constexpr int kMaxCarveTiles = 8;
 /// Tiled carving needs the local block grid to have at most this many cells (the default
@@ -78,17 +73,10 @@ struct OccupancyMapConfig {
   /// Free-space carving split into this many column strips of the image (tiles), each walked
   /// on its own against its own marks, the marks then merged as a set union and applied once
   /// per voxel. 0 (default): one walk over all rays, today's result. T in 1..kMaxCarveTiles:
-  /// the result depends on T but not on `threads` (docs/occupancy_map.md, "Tiled carving").
-  /// Needs the local block grid (at most kMaxTileCells cells).
+  /// the result depends on T but not on the team that carves (docs/occupancy_map.md, "Tiled
+  /// carving"). Only tiled carving runs on a lent team's several members. Needs the local
+  /// block grid (at most kMaxTileCells cells).
   int carve_tiles = 0;
-  /// Threads integrating a frame, the caller included (1..kMaxMapThreads), created once by
-  /// init(). More than 1 needs carve_tiles > 0; the map is bit-identical for every value.
-  int threads = 1;
-  /// SCHED_FIFO priority of the helper threads (1..99); 0 (default): they inherit the policy of
-  /// the thread that calls init(). Two threads need a real-time policy on a shared machine.
-  int helper_fifo_priority = 0;
-  /// Pin helper m (1..threads-1) to CPU helper_first_cpu + m - 1; -1 (default): no pinning.
-  int helper_first_cpu = -1;
 };
 
 /// Counters of the last integrate() call (work done, work dropped by caps, pool churn).
@@ -106,16 +94,6 @@ struct IntegrationStats {
   std::size_t hits = 0;                ///< hit updates applied
   std::size_t updates_dropped = 0;     ///< voxel updates lost because no block could be allocated
   std::size_t rays_stopped_early = 0;  ///< free_ray_early_stop: rays stopped before the camera
-};
-
-/// Work a caller hands to OccupancyMap::integrate() to run on the map's team while it carves,
-/// e.g. the pipeline's detection: run(context, part) for each part in [0, parts), in any order
-/// and possibly at once on different threads. It must not touch the map.
-struct MapSideTask {
-  static constexpr unsigned kMaxParts = 4;
-  void (*run)(void* context, unsigned part) noexcept = nullptr;
-  void* context = nullptr;
-  unsigned parts = 1;  ///< 1..kMaxParts
 };
 
 }  // namespace dynamap

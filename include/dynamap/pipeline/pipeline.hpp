@@ -1,11 +1,12 @@
 // Pipeline: the six stages of dynamap in order, with fixed memory and bounded work; on the
-// calling thread, plus the map's worker team when map.threads > 1 (detection then runs on the
-// team during the map's carving). init() takes all memory (the object holds it inline, so a
-// Pipeline can be a static global); process() never allocates, throws, locks or does I/O. This is
-// the unit an RTOS-like loop calls once per depth frame.
+// calling thread, plus the pipeline's thread team when team.members > 1 (it carves the map's
+// tiles while detection runs beside them, then bins the far field). init() takes all memory (the
+// object holds it inline, so a Pipeline can be a static global); process() never allocates, throws,
+// locks or does I/O. This is the unit an RTOS-like loop calls once per depth frame.
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 
@@ -20,6 +21,7 @@
 #include "dynamap/pipeline/parameters.hpp"
 #include "dynamap/pipeline/pipeline_config.hpp"
 #include "dynamap/pipeline/stage_timing.hpp"
+#include "dynamap/platform/worker_team.hpp"
 #include "dynamap/predict/far_field_layer.hpp"
 #include "dynamap/predict/linear_predictor.hpp"
 #include "dynamap/predict/markov_predictor.hpp"
@@ -130,7 +132,7 @@ class Pipeline {
   const StageStats& frame_stats() const noexcept { return frame_stats_; }
   void reset_timing() noexcept;
   /// Replaces the monotonic clock (tests inject a fake one for deterministic budget logic).
-  /// With map.threads > 1 it is also read on the map's worker threads, at once: thread-safe.
+  /// With team.members > 1 it is also read on the team's helper threads, at once: thread-safe.
   void set_clock(Clock clock) noexcept { clock_ = clock != nullptr ? clock : default_clock(); }
 
   /// Whole footprint in bytes (the object holds all its memory inline).
@@ -149,9 +151,9 @@ class Pipeline {
     std::uint64_t prev = 0;
     std::array<std::uint64_t, kStageCount> stage_ns{};
   };
-  /// Detection handed to the map's team (map.threads > 1) in two parts that may run at once:
-  /// 0 the detector and its fragment join/split, 1 the ever-free grid's update. Each part is
-  /// timed on the thread that runs it.
+  /// Detection on the team (team.members > 1) in two parts the members claim before their
+  /// share of the map's tiles: 0 the detector and its fragment join/split, 1 the ever-free
+  /// grid's update. Each part is timed on the thread that runs it.
   struct DetectionJob {
     static constexpr unsigned kParts = 2;
     Pipeline* pipeline = nullptr;
@@ -159,9 +161,18 @@ class Pipeline {
     FrameWork* work = nullptr;
     std::array<std::uint64_t, kParts> ns{};
     Status ever_free_status = Status::kOk;  ///< part 1's, counted by the caller after the join
+    std::atomic<std::uint32_t> next_part{0};
   };
-  static void detect_on_team(void* job, unsigned part) noexcept;
-  static void bin_far_field_on_team(void* pipeline, unsigned part) noexcept;
+  /// (Re)starts team_ when `config` asks for another one.
+  Status start_team(const TeamConfig& config) noexcept;
+  static void detect_and_carve(void* job, unsigned member) noexcept;
+  void detect_part(DetectionJob& job, unsigned part) noexcept;
+  /// The far-field layer's column binning on the team: parts claimed by whichever member is free.
+  struct BinJob {
+    Pipeline* pipeline = nullptr;
+    std::atomic<std::uint32_t> next_part{0};
+  };
+  static void bin_far_field(void* job, unsigned member) noexcept;
   void detect_boxes(const Frame& frame, FrameWork& work) noexcept;
   /// True when `s` is kOk; otherwise counts a step error in `work` and the counters.
   bool step_ok(Status s, FrameWork& work) noexcept;
@@ -172,7 +183,7 @@ class Pipeline {
   void track(const Frame& frame, FrameWork& work) noexcept;
   void clean(const Frame& frame, FrameWork& work) noexcept;
   std::size_t collect_dynamic(const Frame& frame) noexcept;
-  const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn, bool on_team,
+  const FarFieldLayer* update_far_field(const Frame& frame, std::size_t n_dyn,
                                         FrameWork& work) noexcept;
   std::size_t predict(std::size_t n_dyn, const FarFieldLayer* far, FrameWork& work,
                       FrameOutput& out) noexcept;
@@ -185,6 +196,10 @@ class Pipeline {
   Stamp last_stamp_ = 0;
   int pixel_stride_ = 2;
   Clock clock_ = default_clock();
+  /// The threads of a frame, lent to the map's tiled carving and shared by detection and the
+  /// far-field binning; started with team_options_ (members, priority, first CPU).
+  platform::WorkerTeam team_{};
+  TeamConfig team_options_{};
 
   OccupancyMap map_{};
   UMapDetector detector_{};

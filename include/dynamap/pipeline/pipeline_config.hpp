@@ -9,6 +9,7 @@
 
 #include "dynamap/core/parameter.hpp"
 #include "dynamap/core/status.hpp"
+#include "dynamap/core/task_team.hpp"
 #include "dynamap/core/types.hpp"
 #include "dynamap/detect/detection_refiner.hpp"
 #include "dynamap/detect/umap_detector.hpp"
@@ -49,6 +50,23 @@ struct BudgetConfig {
   float restore_fraction = 0.5f;  ///< restore a finer stride when below this share of budget
 };
 
+/// Highest CPU index a helper thread may be pinned to (glibc's CPU_SETSIZE - 1).
+inline constexpr int kMaxCpuIndex = 1023;
+
+/// The pipeline's thread team (platform::WorkerTeam), created once by init(). It is lent to the
+/// map's tiled carving, and detection and the far-field binning share it (docs/pipeline.md,
+/// "Threads"); every output is bit-identical for every number of members.
+struct TeamConfig {
+  /// Threads working on a frame, the caller of process() included (1..kMaxTeamMembers). More
+  /// than 1 needs map.carve_tiles > 0.
+  int members = 1;
+  /// SCHED_FIFO priority of the helper threads (1..99); 0 (default): they inherit the policy of
+  /// the thread that calls init(). Two threads need a real-time policy on a shared machine.
+  int helper_fifo_priority = 0;
+  /// Pin helper m (1..members-1) to CPU helper_first_cpu + m - 1; -1 (default): no pinning.
+  int helper_first_cpu = -1;
+};
+
 /// Everything the pipeline needs. Default-constructed, it is the documented configuration for a
 /// 640x480 RealSense-like camera (depth in millimetres).
 struct PipelineConfig {
@@ -71,6 +89,7 @@ struct PipelineConfig {
   bool run_linear_baseline = false;
   float ground_height = 0.0f;  ///< map-frame z of the floor (m)
   BudgetConfig budgets{};
+  TeamConfig team{};
 };
 
 /// Documented upper bounds on the per-frame work a configuration may ask for (docs/realtime.md,

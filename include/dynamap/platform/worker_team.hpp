@@ -1,8 +1,9 @@
-// WorkerTeam: a fixed team of threads that run one task together, for per-frame data
-// parallelism. The helper threads are created once by start() (through WorkerThread) and then
-// wait for work; run() hands a task to all of them with one atomic generation counter, runs
-// the caller's share itself and returns when every member has finished. No lock, allocation or
-// thread creation per run(). Waiting members spin briefly, then sleep on a futex.
+// WorkerTeam: the TaskTeam the pipeline owns, a fixed team of threads that run one task
+// together, for per-frame data parallelism. The helper threads are created once by start() (through
+// WorkerThread) and then wait for work; run() hands a task to all of them with one atomic
+// generation counter, runs the caller's share itself and returns when every member has finished. No
+// lock, allocation or thread creation per run(). Waiting members spin briefly, then sleep on a
+// futex.
 #pragma once
 
 #include <atomic>
@@ -10,16 +11,15 @@
 #include <cstdint>
 
 #include "dynamap/core/status.hpp"
+#include "dynamap/core/task_team.hpp"
 #include "dynamap/platform/worker_thread.hpp"
 
 namespace dynamap::platform {
 
-class WorkerTeam {
+class WorkerTeam final : public TaskTeam {
  public:
   /// Members including the caller of run(): member 0 is always the caller.
-  static constexpr unsigned kMaxMembers = 4;
-  /// task(context, member): member in [0, size()).
-  using Task = void (*)(void* context, unsigned member);
+  static constexpr unsigned kMaxMembers = kMaxTeamMembers;
 
   WorkerTeam() noexcept = default;
   WorkerTeam(const WorkerTeam&) = delete;
@@ -33,11 +33,11 @@ class WorkerTeam {
   [[nodiscard]] Status start(unsigned members, const ThreadOptions& options) noexcept;
   /// Runs task(context, m) on every member m and returns when all have returned. Call it from
   /// one thread at a time (the owner's). Without helpers it simply calls task(context, 0).
-  void run(Task task, void* context) noexcept;
+  void run(Task task, void* context) noexcept override;
   /// Wakes and joins the helpers; a run() in progress on the owner's thread must have returned.
   /// Idempotent.
   void stop() noexcept;
-  unsigned size() const noexcept { return members_; }
+  unsigned size() const noexcept override { return members_; }
 
  private:
   struct Helper {

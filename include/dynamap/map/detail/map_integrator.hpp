@@ -1,9 +1,9 @@
 // MapIntegrator: one depth frame's rays into the occupancy map's block store, and all the
 // scratch that takes (ray lists, frame geometry, the local block grid, the tiled carving's mark
-// sets and the worker team). Held inline by OccupancyMap, which validates the input and owns
-// the store and the parameters; see docs/occupancy_map.md, "Parts". Pass 1 (end points):
-// src/map/map_end_points.cpp; pass 2 (carving): src/map/map_carving.cpp (one walk) and
-// src/map/map_tiled_carving.cpp (tiles on the team).
+// sets). Held inline by OccupancyMap, which validates the input and owns the store and the
+// parameters; see docs/occupancy_map.md, "Parts". Threads are lent per frame (TaskTeam), never
+// owned. Pass 1 (end points): src/map/map_end_points.cpp; pass 2 (carving, one walk or tiles on
+// the team): src/map/map_carving.cpp.
 #pragma once
 
 #include <array>
@@ -14,10 +14,10 @@
 #include <Eigen/Core>
 
 #include "dynamap/core/status.hpp"
+#include "dynamap/core/task_team.hpp"
 #include "dynamap/core/types.hpp"
 #include "dynamap/map/detail/block_store.hpp"
 #include "dynamap/map/occupancy_map_config.hpp"
-#include "dynamap/platform/worker_team.hpp"
 
 namespace dynamap::detail {
 
@@ -46,16 +46,18 @@ class MapIntegrator {
   MapIntegrator(const MapIntegrator&) = delete;
   MapIntegrator& operator=(const MapIntegrator&) = delete;
 
-  /// (Re)starts the worker team when `config` asks for another one; its Status otherwise.
-  [[nodiscard]] Status start_team(const OccupancyMapConfig& config) noexcept;
   /// The local block grid's dimensions (enabled when it has at most kLocalGridCells cells),
   /// and no frame integrated yet.
   void reset(const std::array<std::int32_t, 3>& grid_dim, std::size_t cells) noexcept;
-  /// Integrates one frame the map has validated; runs `side` as OccupancyMap::integrate() says.
-  void integrate(const DepthView& depth, const CameraIntrinsics& cam, const Pose& T_map_camera,
-                 const MapSideTask& side) noexcept;
-  /// OccupancyMap::run_on_team() (parts checked by the caller).
-  void run_on_team(const MapSideTask& task) noexcept;
+  /// One frame the map has validated, in the three steps of OccupancyMap::begin_integration():
+  /// set-up and pass 1 (on `team` when the carving is tiled); one member's share of the
+  /// carving, called by every member of one run of the same team; the tiles' marks applied
+  /// (on the team) and the stats totalled. `team` must outlive finish().
+  void begin(const DepthView& depth, const CameraIntrinsics& cam, const Pose& T_map_camera,
+             TaskTeam& team) noexcept;
+  void carve_share(unsigned member) noexcept;
+  void finish() noexcept;
+  bool frame_open() const noexcept { return team_ != nullptr; }
   static void set_worker_hook(WorkerHook hook) noexcept;
 
   const IntegrationStats& stats() const noexcept { return stats_; }
@@ -73,7 +75,7 @@ class MapIntegrator {
   /// the camera's block less 2^(kKeyBlockBits-1) blocks per axis; the local region is at most
   /// 1000 voxels = 125 blocks each side of the camera, init() checks it).
   static constexpr int kKeyBlockBits = 9;
-  static constexpr std::size_t kMembers = platform::WorkerTeam::kMaxMembers;
+  static constexpr std::size_t kMembers = kMaxTeamMembers;
   /// Pass 1's rows are split into kCodeChunks fixed chunks, claimed by the members one at a
   /// time (a late member only computes fewer of them).
   static constexpr std::size_t kCodeChunks = 16;
@@ -140,7 +142,7 @@ class MapIntegrator {
                       EndMarkCounters& k) noexcept;
   void add_end_mark_counters(const EndMarkCounters& k) noexcept;
   void mark_end_points(const DepthView& depth) noexcept;
-  void mark_end_points_in_team(const DepthView& depth) noexcept;
+  void mark_end_points_in_team() noexcept;
   struct EndCodeSink;
   void compute_end_codes(std::size_t chunk) noexcept;
   void acquire_end_blocks() noexcept;
@@ -180,7 +182,9 @@ class MapIntegrator {
   void carve_tile(std::size_t tile, const DepthView& depth) noexcept;
   /// Pass 2 in one walk on this thread (carve_tiles = 0).
   void carve_one_walk(const DepthView& depth) noexcept;
-  void carve_tiles_in_team(const DepthView& depth) noexcept;
+  void prepare_tiles() noexcept;
+  void carve_tile_claims(unsigned member) noexcept;
+  void finish_tiles() noexcept;
   std::size_t collect_tile_marks() noexcept;
   void apply_tile_marks(unsigned member) noexcept;
 
@@ -210,8 +214,7 @@ class MapIntegrator {
 
   /// Scratch of pass 1 on the team and of the tiled carving (carve_tiles > 0).
   struct TeamScratch {
-    const DepthView* team_depth = nullptr;  ///< the frame being carved, for the team's task
-    MapSideTask side_task{};                ///< integrate()'s side task, claimed before the tiles
+    const DepthView* team_depth = nullptr;  ///< the frame being integrated (begin() .. finish())
     std::atomic<std::uint32_t> next_tile{0};
     std::array<TileScratch, kMaxCarveTiles> tiles{};
     /// Tiles in the order the members claim them: most voxel visits in the last frame first.
@@ -255,8 +258,7 @@ class MapIntegrator {
   std::size_t ray_count_ = 0;
   /// rays_ in carving order: by tile, then coarse-to-fine level, then pixel order.
   std::array<std::uint32_t, kMaxRaysPerFrame> ordered_rays_{};
-  platform::WorkerTeam team_{};
-  int team_fifo_priority_ = 0, team_first_cpu_ = -1;  ///< the options team_ was started with
+  TaskTeam* team_ = nullptr;  ///< the team lent for the open frame (begin() .. finish())
   /// Pool slot + 1 of each block of the local region resolved this frame (0: not yet).
   std::array<std::uint16_t, kLocalGridCells> local_grid_{};
   std::array<std::int32_t, 3> grid_origin_{}, grid_dim_{};
