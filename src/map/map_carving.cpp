@@ -9,13 +9,6 @@
 #include "segment_walk.hpp"
 
 namespace dynamap::detail {
-namespace {
-std::atomic<MapIntegrator::WorkerHook> g_worker_hook{nullptr};
-}  // namespace
-
-void MapIntegrator::set_worker_hook(WorkerHook hook) noexcept {
-  g_worker_hook.store(hook, std::memory_order_relaxed);
-}
 
 inline bool MapIntegrator::end_point(std::uint16_t raw, bool zero_carves, const Eigen::Array4f& dir,
                                      Eigen::Array4f& end, IndexVec& idx,
@@ -514,8 +507,7 @@ void MapIntegrator::prepare_tiles() noexcept {
   t_.next_tile.store(0, std::memory_order_relaxed);
 }
 
-void MapIntegrator::carve_tile_claims(unsigned member) noexcept {
-  if (const WorkerHook hook = g_worker_hook.load(std::memory_order_relaxed)) hook(member);
+void MapIntegrator::carve_tile_claims() noexcept {
   const auto count = static_cast<std::uint32_t>(p_->config.carve_tiles);
   for (std::uint32_t i = t_.next_tile.fetch_add(1, std::memory_order_relaxed); i < count;
        i = t_.next_tile.fetch_add(1, std::memory_order_relaxed)) {

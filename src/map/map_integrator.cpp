@@ -156,7 +156,7 @@ void MapIntegrator::begin(const DepthView& depth, const CameraIntrinsics& cam,
 void MapIntegrator::carve_share(unsigned member) noexcept {
   if (team_ == nullptr) return;
   if (p_->config.carve_tiles > 0) {
-    carve_tile_claims(member);
+    carve_tile_claims();
   } else if (member == 0) {
     carve_one_walk(*t_.team_depth);
   }

@@ -32,10 +32,6 @@ inline bool finite_positive(float x) noexcept {
 
 OccupancyMap::OccupancyMap() noexcept = default;
 
-void OccupancyMap::set_worker_hook(WorkerHook hook) noexcept {
-  detail::MapIntegrator::set_worker_hook(hook);
-}
-
 namespace {
 
 // Every rule init() applies to a configuration on its own: the ranges of params::kOccupancyMap,

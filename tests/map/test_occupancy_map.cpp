@@ -1061,15 +1061,44 @@ std::unique_ptr<platform::WorkerTeam> make_team(unsigned members) {
   return team;
 }
 
+/// A team whose member 1 starts every task `delay` late: a helper that wakes slowly.
+class DelayedTeam final : public TaskTeam {
+ public:
+  DelayedTeam(TaskTeam& team, std::chrono::milliseconds delay) : team_(team), delay_(delay) {}
+  unsigned size() const noexcept override { return team_.size(); }
+  void run(Task task, void* context) noexcept override {
+    task_ = task;
+    context_ = context;
+    team_.run(&DelayedTeam::delayed, this);
+  }
+  int delays() const { return delays_.load(); }
+
+ private:
+  static void delayed(void* self, unsigned member) {
+    auto& t = *static_cast<DelayedTeam*>(self);
+    if (member == 1) {
+      t.delays_.fetch_add(1);
+      std::this_thread::sleep_for(t.delay_);
+    }
+    t.task_(t.context_, member);
+  }
+  TaskTeam& team_;
+  std::chrono::milliseconds delay_;
+  Task task_ = nullptr;
+  void* context_ = nullptr;
+  std::atomic<int> delays_{0};
+};
+
 /// A hash of every frame's stats, updated voxels and map of a walk through the regression
-/// room, integrated on a team of `threads` members.
+/// room, integrated on a team of `threads` members (member 1 `delay` late when > 0).
 std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int frames,
                                           unsigned threads = 1,
-                                          OccupancyMap::WorkerHook hook = nullptr,
-                                          bool backdrop = true) {
+                                          std::chrono::milliseconds delay = {},
+                                          bool backdrop = true, int* delays = nullptr) {
   auto map = make_map(cfg);
-  const auto team = make_team(threads);
-  OccupancyMap::set_worker_hook(hook);
+  const auto workers = make_team(threads);
+  DelayedTeam delayed(*workers, delay);
+  TaskTeam* const team = delay.count() > 0 ? static_cast<TaskTeam*>(&delayed) : workers.get();
   const CameraIntrinsics cam = small_camera(320, 240);
   const Scene scene = regression_room(backdrop);
   std::uint64_t h = 0;
@@ -1078,7 +1107,7 @@ std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int fra
     const Pose pose = make_pose(Vec3(-1.5f + 2.5f * s, -0.8f + 1.2f * s, 1.1f + 0.3f * s),
                                 -1.2f + 4.0f * s, 0.15f * std::sin(7.f * s), 0.1f * s);
     const DepthImage img = render(scene, cam, pose);
-    EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs, team.get()),
+    EXPECT_EQ(map->integrate(img.view, cam, pose, static_cast<Stamp>(f + 1) * kFrameNs, team),
               Status::kOk);
     const IntegrationStats& st = map->last_stats();
     for (std::size_t x : {st.rays, st.rays_dropped, st.voxel_visits, st.voxel_updates, st.hits,
@@ -1093,7 +1122,7 @@ std::uint64_t integrate_walk_with_updates(const OccupancyMapConfig& cfg, int fra
     h = h * 1000003u + updated;
     h = h * 1000003u + map->checksum();
   }
-  OccupancyMap::set_worker_hook(nullptr);
+  if (delays != nullptr) *delays = delayed.delays();
   return h;
 }
 
@@ -1116,8 +1145,8 @@ TEST(OccupancyMap, TiledCarvingIsBitIdenticalForOneToFourThreads) {
     OccupancyMapConfig open;
     open.carve_tiles = 4;
     open.no_return_free_depth = no_return;
-    const std::uint64_t open_one = integrate_walk_with_updates(open, 12, 1, nullptr, false);
-    EXPECT_EQ(integrate_walk_with_updates(open, 12, 2, nullptr, false), open_one) << no_return;
+    const std::uint64_t open_one = integrate_walk_with_updates(open, 12, 1, {}, false);
+    EXPECT_EQ(integrate_walk_with_updates(open, 12, 2, {}, false), open_one) << no_return;
   }
   // With a tiny pool (eviction every frame, blocks that cannot be allocated) and the visit cap.
   OccupancyMapConfig tiny;
@@ -1203,20 +1232,14 @@ TEST(OccupancyMap, TiledCarvingChangesOnlyTheEarlyStoppedMisses) {
   }
 }
 
-std::atomic<int> g_slow_member_calls{0};
-void delay_member_one(unsigned member) {
-  if (member != 1) return;
-  g_slow_member_calls.fetch_add(1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(3));
-}
-
 TEST(OccupancyMap, ASlowWorkerDelaysTheFrameButNeverChangesIt) {
   OccupancyMapConfig cfg;
   cfg.carve_tiles = 4;
   const std::uint64_t one = integrate_walk_with_updates(cfg, 8);
-  g_slow_member_calls = 0;
-  EXPECT_EQ(integrate_walk_with_updates(cfg, 8, 2, &delay_member_one), one);
-  EXPECT_EQ(g_slow_member_calls.load(), 8);  // once per frame: the team did run the frames
+  int delays = 0;
+  EXPECT_EQ(integrate_walk_with_updates(cfg, 8, 2, std::chrono::milliseconds(3), true, &delays),
+            one);
+  EXPECT_GE(delays, 8);  // at least once per frame: the team did run the frames
 }
 
 TEST(OccupancyMap, TilesAreValidated) {

@@ -1,5 +1,6 @@
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -270,11 +271,23 @@ namespace {
 
 // ---- team threads (issue 17) ------------------------------------------------------------------
 
+// The pipeline reads its clock on the thread running process() and, around the detection's
+// parts, on the team's helper. This clock makes every read 2 ms slow on the process() thread
+// (so the helper gets to claim a detection part) and 20 ms slow on the helper.
 std::atomic<int> g_slow_calls{0};
-void slow_member(unsigned member) {
-  if (member != 1) return;
-  g_slow_calls.fetch_add(1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+std::atomic<std::thread::id> g_process_thread{};
+std::uint64_t slow_helper_clock() {
+  std::thread::id none{};
+  g_process_thread.compare_exchange_strong(none, std::this_thread::get_id());  // first reader
+  if (g_process_thread.load() != std::this_thread::get_id()) {
+    g_slow_calls.fetch_add(1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  } else {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                        std::chrono::steady_clock::now().time_since_epoch())
+                                        .count());
 }
 
 // stop() while a frame is in flight on the pipeline's team (one member is 20 ms slow): the frame
@@ -285,8 +298,9 @@ TEST(Runner, StopWhileAFrameIsInFlightOnTheTeamIsClean) {
   cfg.map.carve_tiles = 4;
   cfg.team.members = 2;
   ASSERT_EQ(p->init(cfg), Status::kOk);
-  OccupancyMap::set_worker_hook(&slow_member);
+  g_process_thread = std::thread::id{};
   g_slow_calls = 0;
+  p->set_clock(&slow_helper_clock);
   auto r = std::make_unique<Runner>(*p);
   ASSERT_EQ(r->start(), Status::kOk);
   std::vector<std::uint16_t> px(static_cast<std::size_t>(cfg.camera.width * cfg.camera.height),
@@ -297,16 +311,18 @@ TEST(Runner, StopWhileAFrameIsInFlightOnTheTeamIsClean) {
     f.depth = DepthView{px.data(), cfg.camera.width, cfg.camera.height, cfg.camera.width * 2};
     EXPECT_EQ(r->submit(f), Status::kOk);
   }
-  while (g_slow_calls.load() == 0) std::this_thread::yield();  // a frame is on the team
+  // A frame is on the team (unless every frame's detection ran on the process() thread alone).
+  while (g_slow_calls.load() == 0 && r->counters().processed < 3) std::this_thread::yield();
+  const int slow_before_stop = g_slow_calls.load();
   r->stop();
   EXPECT_FALSE(r->running());
+  std::printf("[ runner ] helper clock reads before stop: %d\n", slow_before_stop);
   const RunnerCounters c = r->counters();
   EXPECT_GE(c.processed, 1u);
   EXPECT_EQ(c.processed + c.failed + c.dropped_at_stop, c.submitted) << "a frame was lost";
   EXPECT_EQ(c.failed, 0u);
-  OccupancyMap::set_worker_hook(nullptr);
   r.reset();
-  p.reset();  // joins the map's helpers
+  p.reset();  // joins the team's helpers
 }
 
 }  // namespace

@@ -53,11 +53,6 @@ class OccupancyMap {
   /// Cells of the dense per-frame block grid over `config`'s local region (one block margin each
   /// side); tiled carving (carve_tiles > 0) needs at most kMaxTileCells.
   static std::size_t local_grid_cells(const OccupancyMapConfig& config) noexcept;
-  /// Tests only: called by each team member (0 = the integrating thread) of every map when it
-  /// starts its share of a frame's tiled carving, e.g. to delay one worker. nullptr: none.
-  using WorkerHook = detail::MapIntegrator::WorkerHook;
-  static void set_worker_hook(WorkerHook hook) noexcept;
-
   /// Integrates one depth frame taken at T_map_camera. On any bad input returns its Status and
   /// changes nothing: kOutOfRange when the camera lies beyond max_abs_translation() (see
   /// check_pose_range()). Never fails for lack of space: far blocks are evicted instead.

@@ -39,8 +39,6 @@ struct MapParams {
 
 class MapIntegrator {
  public:
-  using WorkerHook = void (*)(unsigned member);
-
   MapIntegrator(BlockStore& store, const MapParams& params) noexcept
       : p_(&params), store_(&store) {}
   MapIntegrator(const MapIntegrator&) = delete;
@@ -58,7 +56,6 @@ class MapIntegrator {
   void carve_share(unsigned member) noexcept;
   void finish() noexcept;
   bool frame_open() const noexcept { return team_ != nullptr; }
-  static void set_worker_hook(WorkerHook hook) noexcept;
 
   const IntegrationStats& stats() const noexcept { return stats_; }
   /// A block allocated outside integration (OccupancyMap::set_log_odds()) counts in the stats.
@@ -183,7 +180,7 @@ class MapIntegrator {
   /// Pass 2 in one walk on this thread (carve_tiles = 0).
   void carve_one_walk(const DepthView& depth) noexcept;
   void prepare_tiles() noexcept;
-  void carve_tile_claims(unsigned member) noexcept;
+  void carve_tile_claims() noexcept;
   void finish_tiles() noexcept;
   std::size_t collect_tile_marks() noexcept;
   void apply_tile_marks(unsigned member) noexcept;
