@@ -2,8 +2,8 @@
 // scratch that takes (ray lists, frame geometry, the local block grid, the tiled carving's mark
 // sets). Held inline by OccupancyMap, which validates the input and owns the store and the
 // parameters; see docs/occupancy_map.md, "Parts". Threads are lent per frame (TaskTeam), never
-// owned. Pass 1 (end points): src/map/map_end_points.cpp; pass 2 (carving, one walk or tiles on
-// the team): src/map/map_carving.cpp.
+// owned. Pass 1 (end points): src/map/map_end_points.cpp; pass 2 (carving): the one walk in
+// src/map/map_carving.cpp, the tiles on the team in src/map/map_tiled_carving.cpp.
 #pragma once
 
 #include <array>
