@@ -83,7 +83,7 @@ class OccupancyMap {
   /// First voxel on the segment a->b that is not observed free (unknown or occupied), with the
   /// same 3-D DDA: fills *hit (voxel centre) and *state when found. Planners and the predictor
   /// use it to tell space seen to be free from space never seen
-  /// (src/map/occupancy_map_free_query.cpp). Work: one step per voxel crossed (no block is
+  /// (src/map/occupancy_map_queries.cpp). Work: one step per voxel crossed (no block is
   /// skipped), at most kMaxSegmentVisits; a longer segment reports its first unchecked voxel as
   /// unknown.
   bool first_non_free_on_segment(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
