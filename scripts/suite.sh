@@ -5,20 +5,22 @@
 # distribution with the five worst seeds per metric (dynamap-suite-table; also ROOT/suite.md).
 #
 #   scripts/suite.sh N [--first S] [--seeds "A B C"] [--out DIR] [--frames F] [--jobs J]
-#                      [--bin DIR] [--min KEY=V]... [--max KEY=V]...
+#                      [--bin DIR] [--reuse] [--min KEY=V]... [--max KEY=V]...
 #
 # Seeds S .. S+N-1 (default S = 1), or the N seeds listed by --seeds; output in DIR (default
 # out/suite): DIR/seed_K (sequence, README.md with every draw), DIR/seed_K_out (replay,
 # metrics.json, pictures, overlay/contact_sheet.png), DIR/seed_K.log.
 # --frames F: frames per seed (default: dynamap-sim random's 450, 15 s). --bin DIR: the tools'
-# directory (default: build the release preset and use build/release/tools). --min / --max:
+# directory (default: build the release preset and use build/release/tools). --reuse: keep a
+# seed's sequence already rendered in DIR (same seed and frames), e.g. to re-measure a library
+# change without the render, which is most of the time. --min / --max:
 # bounds every seed must keep (the smoke test's floors); exit 1 when one does not.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 usage() { sed -n '7,8p' "$0" | sed 's/^# *//' >&2; exit 2; }
 [ $# -ge 1 ] || usage
 N=$1; shift
-FIRST=1 SEEDS="" ROOT=out/suite FRAMES="" JOBS=2 BIN="" BOUNDS=()
+FIRST=1 SEEDS="" ROOT=out/suite FRAMES="" JOBS=2 BIN="" REUSE=0 BOUNDS=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --first) FIRST=$2; shift 2 ;;
@@ -27,6 +29,7 @@ while [ $# -gt 0 ]; do
     --frames) FRAMES=$2; shift 2 ;;
     --jobs) JOBS=$2; shift 2 ;;
     --bin) BIN=$2; shift 2 ;;
+    --reuse) REUSE=1; shift ;;
     --min|--max) BOUNDS+=("$1" "$2"); shift 2 ;;
     *) usage ;;
   esac
@@ -48,9 +51,18 @@ fi
 # One seed: render, replay, evaluate, overlay; one progress line when it is done.
 run_seed() {
   local k=$1 seq="$ROOT/seed_$1" out="$ROOT/seed_$1_out" log="$ROOT/seed_$1.log" t0=$SECONDS
-  rm -rf "$seq" "$out"
-  if "$BIN/dynamap-sim" random --seed "$k" --out "$seq" ${FRAMES:+--frames "$FRAMES"} >"$log" 2>&1 &&
-     "$BIN/dynamap-replay" "$seq" --out "$out" --quiet --cpu-clock >>"$log" 2>&1 &&
+  rm -rf "$out"
+  # A kept sequence is reused only when it was rendered for the same frame count.
+  local want="${FRAMES:-default}"
+  if [ "$REUSE" = 1 ] && [ -f "$seq/README.md" ] && [ "$(cat "$seq/.frames" 2>/dev/null)" = "$want" ]; then
+    echo "reusing $seq" >"$log"
+  else
+    rm -rf "$seq"
+    "$BIN/dynamap-sim" random --seed "$k" --out "$seq" ${FRAMES:+--frames "$FRAMES"} >"$log" 2>&1 ||
+      { echo "seed $k FAILED (render; $log)"; return 1; }
+    echo "$want" >"$seq/.frames"
+  fi
+  if "$BIN/dynamap-replay" "$seq" --out "$out" --quiet --cpu-clock >>"$log" 2>&1 &&
      "$BIN/dynamap-eval" "$seq" "$out" --picture --map >>"$log" 2>&1 &&
      "$BIN/dynamap-overlay" "$seq" "$out" --out "$out/overlay" --every 45 --quiet >>"$log" 2>&1
   then
