@@ -17,6 +17,7 @@
 #include "dynamap/core/types.hpp"
 #include "dynamap/track/continuity_filter.hpp"
 #include "dynamap/track/detail/history_ring.hpp"
+#include "dynamap/track/detail/tracker_scratch.hpp"
 #include "dynamap/track/kalman_filter.hpp"
 #include "dynamap/track/label_state.hpp"
 
@@ -187,27 +188,8 @@ class Tracker {
     std::size_t in_view_frames = 0;
     bool active = false;
   };
-  struct Measurement {  // a detection after bias correction
-    Eigen::Vector3f center;
-    Eigen::Vector3f size;      // estimated full size
-    Eigen::Vector3f own_size;  // full size estimated from this detection alone (not the fixed one)
-    Eigen::Vector3f raw_size;  // the detection box's own size
-    Eigen::Vector4f edges;     // the detection box's top-view min x, min y, max x, max y
-    bool in_view;
-    bool near_enough;  // near enough for size fixing
-  };
-  struct Pair {  // a candidate (detection, track) association
-    float distance;
-    std::uint8_t det;
-    std::uint8_t slot;
-  };
-  struct FrameScratch {  // one update's working memory (kept here: no stack arrays of this size)
-    std::array<Measurement, kMaxDetections> meas;
-    std::array<Pair, kMaxDetections * kMaxTracks> pairs;
-    std::size_t pair_count = 0;
-    std::array<bool, kMaxDetections> det_used{};
-    std::array<bool, kMaxTracks> track_used{};
-  };
+  using Measurement = detail::TrackMeasurement;
+  using Pair = detail::TrackPair;
   // The steps of update(): input checks, prediction, candidate pairs, coasting, new tracks.
   Status check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
                      Stamp stamp) const noexcept;
@@ -235,7 +217,7 @@ class Tracker {
   std::array<Track, kMaxTracks> tracks_{};
   std::array<TrackedObstacle, kMaxTracks> output_{};
   std::array<std::uint8_t, kMaxTracks> output_slot_{};
-  FrameScratch frame_{};
+  detail::TrackerScratch frame_{};  ///< one update's working memory
   std::size_t output_count_ = 0;
   std::uint32_t next_id_ = 1;
   Stamp last_stamp_ = 0;

@@ -1,5 +1,5 @@
-// Internal: include/dynamap/detail/ is installed because Tracker holds its track histories inline,
-// but it is not a stable API.
+// Internal: include/dynamap/track/detail/ is installed because Tracker holds its track histories
+// inline, but it is not a stable API.
 #pragma once
 
 #include <array>
