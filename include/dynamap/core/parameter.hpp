@@ -2,9 +2,10 @@
 // to the stage (map/map_params.hpp, detect/detect_params.hpp, track/track_params.hpp,
 // predict/predict_params.hpp): member path, unit, valid range, tier and help. The default is
 // the struct's member initialiser, read from a default-constructed config, never repeated here.
-// The stage's validate() checks every range from its table (first_out_of_range); the pipeline
-// assembles the stage tables into the PipelineConfig table (pipeline/parameters.hpp), which the
-// tools' YAML keys, `dynamap-replay --help-params` and docs/parameters.md come from.
+// The stage's validate() checks every range from its table (first_out_of_range), then the
+// relations between its fields from its Relation table (first_broken); the pipeline assembles
+// the stage tables into the PipelineConfig tables (pipeline/parameters.hpp), which validate(),
+// the tools' YAML keys, `dynamap-replay --help-params` and docs/parameters.md come from.
 #pragma once
 
 #include <cstddef>
@@ -89,6 +90,32 @@ const Param<Config>* first_out_of_range(const Config& config, const Param<Config
 template <class Config, std::size_t N>
 bool all_in_range(const Config& config, const Param<Config> (&table)[N]) noexcept {
   return first_out_of_range(config, table, N) == nullptr;
+}
+
+/// A rule relating fields of one config (prob_min < prob_miss), in a table next to the stage's
+/// Param table so the stage's validate() and the pipeline's check the same code. `field` is the
+/// member path to change (the pipeline adds its prefix, as for a Param); `reason` names fields by
+/// their PipelineConfig path, as the YAML keys and error messages do.
+template <class Config>
+struct Relation {
+  const char* field;   ///< member path, e.g. "prob_min", "continuity.static_votes"
+  const char* reason;  ///< e.g. "must be < map.prob_miss"
+  bool (*holds)(const Config& config) noexcept;
+};
+
+/// The first relation of `table` that `config` breaks (in table order), or nullptr. Meaningful
+/// once every field is in range (a relation may divide by a field).
+template <class Config>
+const Relation<Config>* first_broken(const Config& config, const Relation<Config>* table,
+                                     std::size_t count) noexcept {
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!table[k].holds(config)) return &table[k];
+  }
+  return nullptr;
+}
+template <class Config, std::size_t N>
+bool all_hold(const Config& config, const Relation<Config> (&table)[N]) noexcept {
+  return first_broken(config, table, N) == nullptr;
 }
 
 namespace param_detail {
