@@ -18,7 +18,7 @@ bool finite_positive(float x) noexcept {
 }
 
 bool config_valid(const UMapDetectorConfig& c) noexcept {
-  return all_in_range(c, params::kUMapDetector) && c.d_max > c.d_min;
+  return all_in_range(c, params::kUMapDetector) && all_hold(c, params::kUMapDetectorRelations);
 }
 
 bool intrinsics_valid(const CameraIntrinsics& cam) noexcept {

@@ -32,23 +32,13 @@ OccupancyMap::OccupancyMap() noexcept = default;
 namespace {
 
 // Every rule init() applies to a configuration on its own: the ranges of params::kOccupancyMap,
-// then the relations between fields (PipelineConfig's validate() names them).
+// then the relations of params::kOccupancyMapRelations (PipelineConfig's validate() names them).
 bool config_valid(const OccupancyMapConfig& c) noexcept {
   if (!all_in_range(c, params::kOccupancyMap)) return false;
-  if (!(c.prob_min < c.prob_miss && c.prob_hit < c.prob_max && c.prob_min <= c.prob_occupied &&
-        c.prob_occupied < c.prob_max)) {
-    return false;
-  }
-  // The clamp range must fit int16 next to the kUnknown sentinel.
-  if (std::fabs(logit(c.prob_min)) > 30.f || std::fabs(logit(c.prob_max)) > 30.f) {
-    return false;
-  }
-  if (c.max_depth <= c.min_depth || c.no_return_free_depth > c.max_depth) return false;
-  for (int a = 0; a < 3; ++a) {
-    // Half extents up to 1000 voxels keep the whole local region far inside the key range.
-    if (c.local_half_extent[a] > 1000.f * c.resolution) return false;
-  }
-  return true;
+  if (!all_hold(c, params::kOccupancyMapRelations)) return false;
+  // The clamp range must fit int16 next to the kUnknown sentinel (the ranges of prob_min and
+  // prob_max already keep |logit| below 17; a guard for the quantisation, not a user rule).
+  return std::fabs(logit(c.prob_min)) <= 30.f && std::fabs(logit(c.prob_max)) <= 30.f;
 }
 
 // Blocks per axis of the dense per-frame grid over the local region, +1 block margin each side.

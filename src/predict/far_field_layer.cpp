@@ -11,17 +11,9 @@
 namespace dynamap {
 
 Status validate(const FarFieldConfig& c) noexcept {
-  if (!all_in_range(c, params::kFarField) || c.max_range <= c.hit_min_range) {
-    return Status::kInvalidArgument;
-  }
-  // Every range bin of a column must fit, and the grid must hold the range on every side.
-  if (c.max_range / c.cell_size > static_cast<float>(kFarFieldMaxBins) ||
-      2.0f * c.max_range / c.cell_size > static_cast<float>(kFarFieldCellsPerSide) - 2.0f) {
-    return Status::kInvalidArgument;
-  }
-  const bool heights_ok =
-      c.max_height > c.min_height && c.wall_height >= c.min_height && c.wall_height <= c.max_height;
-  return heights_ok && c.max_evidence >= c.hit_evidence ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(c, params::kFarField) && all_hold(c, params::kFarFieldRelations)
+             ? Status::kOk
+             : Status::kInvalidArgument;
 }
 
 Status FarFieldLayer::init(const FarFieldConfig& config, float ground_height) noexcept {

@@ -7,9 +7,9 @@
 namespace dynamap {
 
 Status ContinuityConfig::validate() const noexcept {
-  const bool good = all_in_range(*this, params::kContinuity) && dynamic_votes <= vote_window &&
-                    static_votes < dynamic_votes && (min_size.array() <= max_size.array()).all();
-  return good ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(*this, params::kContinuity) && all_hold(*this, params::kContinuityRelations)
+             ? Status::kOk
+             : Status::kInvalidArgument;
 }
 
 bool continuity_score(const Eigen::Vector2f* positions, std::size_t count, std::size_t n,

@@ -4,10 +4,8 @@
 
 namespace dynamap {
 
-Status LabelConfig::validate(std::size_t vote_window) const noexcept {
-  return all_in_range(*this, params::kLabel) && early_votes <= vote_window
-             ? Status::kOk
-             : Status::kInvalidArgument;
+Status LabelConfig::validate() const noexcept {
+  return all_in_range(*this, params::kLabel) ? Status::kOk : Status::kInvalidArgument;
 }
 
 void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexcept {

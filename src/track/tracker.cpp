@@ -36,14 +36,12 @@ Status validate_detection(const Detection& d) noexcept {
 }  // namespace
 
 Status TrackerConfig::validate() const noexcept {
-  if (!ok(kalman.validate()) || !ok(continuity.validate()) ||
-      !ok(label.validate(continuity.vote_window))) {
+  if (!ok(kalman.validate()) || !ok(continuity.validate()) || !ok(label.validate())) {
     return Status::kInvalidArgument;
   }
-  if (!all_in_range(*this, params::kTracker)) return Status::kInvalidArgument;
-  const bool good = continuity.displacement_frames + 1 <= history_length &&
-                    early_displacement_frames < continuity.displacement_frames;
-  return good ? Status::kOk : Status::kInvalidArgument;
+  return all_in_range(*this, params::kTracker) && all_hold(*this, params::kTrackerRelations)
+             ? Status::kOk
+             : Status::kInvalidArgument;
 }
 
 Tracker::Tracker() noexcept {

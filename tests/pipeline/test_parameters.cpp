@@ -214,8 +214,7 @@ TEST(Parameters, StageValidationComesFromTheStageTables) {
   n += expect_stage_refuses(params::kImm, valid, "imm");
   n += expect_stage_refuses(params::kContinuity, valid, "continuity");
   n += expect_stage_refuses(params::kTracker, valid, "tracker");
-  n += expect_stage_refuses(
-      params::kLabel, [](const LabelConfig& c) { return ok(c.validate(kMaxVoteWindow)); }, "label");
+  n += expect_stage_refuses(params::kLabel, valid, "label");
   n += expect_stage_refuses(params::kDetectionRefiner, valid, "fragments");
   n += expect_stage_refuses(params::kEverFree, valid, "ever_free");
   n += expect_stage_refuses(params::kDynamicRegionCleaner, valid, "cleaner");

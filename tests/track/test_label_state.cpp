@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "dynamap/track/label_state.hpp"
+#include "dynamap/track/tracker.hpp"
 
 namespace dynamap {
 namespace {
@@ -312,16 +313,24 @@ TEST(LabelStateHold, NoHoldBeforeEnoughDynamicFrames) {
 }
 
 TEST(LabelConfig, Validate) {
-  EXPECT_EQ(LabelConfig{}.validate(20), Status::kOk);
+  EXPECT_EQ(LabelConfig{}.validate(), Status::kOk);
   LabelConfig c;
-  c.early_votes = 21;
-  EXPECT_EQ(c.validate(20), Status::kInvalidArgument);
+  c.early_votes = kMaxVoteWindow + 1;
+  EXPECT_EQ(c.validate(), Status::kInvalidArgument);
   c = LabelConfig{};
   c.hold_min_dynamic_frames = 0;
-  EXPECT_EQ(c.validate(20), Status::kInvalidArgument);
+  EXPECT_EQ(c.validate(), Status::kInvalidArgument);
   c = LabelConfig{};
   c.dynamic_hold_frames = 100001;
-  EXPECT_EQ(c.validate(20), Status::kInvalidArgument);
+  EXPECT_EQ(c.validate(), Status::kInvalidArgument);
+}
+
+// early_votes against the vote window relates two configs: the tracker's rule.
+TEST(LabelConfig, EarlyVotesBeyondTheWindowAreRefusedByTheTracker) {
+  TrackerConfig t;
+  t.label.early_votes = t.continuity.vote_window + 1;
+  EXPECT_EQ(t.label.validate(), Status::kOk);
+  EXPECT_EQ(t.validate(), Status::kInvalidArgument);
 }
 
 }  // namespace

@@ -38,6 +38,13 @@ inline constexpr Param<UMapDetectorConfig> kUMapDetector[] = {
 };
 static_assert(paths_unique(kUMapDetector));
 
+/// Relations between UMapDetectorConfig fields, checked by UMapDetector::init() after the ranges
+/// and named by the pipeline's validate().
+inline constexpr Relation<UMapDetectorConfig> kUMapDetectorRelations[] = {
+    {"d_max", "must be > detector.d_min",
+     [](const UMapDetectorConfig& c) noexcept { return c.d_max > c.d_min; }},
+};
+
 /// The parameters of DetectionRefinerConfig, one row per field (PipelineConfig prefix
 /// "fragments.").
 inline constexpr Param<DetectionRefinerConfig> kDetectionRefiner[] = {

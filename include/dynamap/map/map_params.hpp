@@ -42,6 +42,31 @@ inline constexpr Param<OccupancyMapConfig> kOccupancyMap[] = {
 };
 static_assert(paths_unique(kOccupancyMap));
 
+/// Relations between OccupancyMapConfig fields, checked by OccupancyMap::init() after the ranges
+/// and named by the pipeline's validate(). The tiled-carving grid bound (kMaxTileCells) stays in
+/// init() and pipeline_config.cpp.
+inline constexpr Relation<OccupancyMapConfig> kOccupancyMapRelations[] = {
+    {"prob_min", "must be < map.prob_miss",
+     [](const OccupancyMapConfig& c) noexcept { return c.prob_min < c.prob_miss; }},
+    {"prob_max", "must be > map.prob_hit",
+     [](const OccupancyMapConfig& c) noexcept { return c.prob_hit < c.prob_max; }},
+    {"prob_occupied", "must be in [map.prob_min, map.prob_max)",
+     [](const OccupancyMapConfig& c) noexcept {
+       return c.prob_min <= c.prob_occupied && c.prob_occupied < c.prob_max;
+     }},
+    {"max_depth", "must be > map.min_depth",
+     [](const OccupancyMapConfig& c) noexcept { return c.max_depth > c.min_depth; }},
+    {"no_return_free_depth", "must be <= map.max_depth",
+     [](const OccupancyMapConfig& c) noexcept { return c.no_return_free_depth <= c.max_depth; }},
+    // Keeps the whole local region far inside the key range and bounds every ray's walk.
+    {"local_half_extent",
+     "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "
+     "(bounds the length of every ray)",
+     [](const OccupancyMapConfig& c) noexcept {
+       return (c.local_half_extent.array() <= kMaxLocalHalfExtentVoxels * c.resolution).all();
+     }},
+};
+
 /// The parameters of MapRefinerConfig, one row per field (PipelineConfig prefix "refiner.").
 inline constexpr Param<MapRefinerConfig> kMapRefiner[] = {
     // clang-format off

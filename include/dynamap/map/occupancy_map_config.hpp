@@ -21,6 +21,10 @@ inline constexpr std::size_t kMaxRaysPerFrame =
 /// pipeline bounds it far lower (kMaxPipelineVoxelVisitsPerFrame).
 inline constexpr std::size_t kMaxVoxelVisitsPerFrame = 32'000'000;
 
+/// Half extent of the map's local region per axis, in voxels (local_half_extent / resolution):
+/// bounds one ray's walk to about 3 x this many voxels (default 50 / 50 / 30).
+inline constexpr float kMaxLocalHalfExtentVoxels = 1000.f;
+
 /// Upper bound of OccupancyMapConfig::carve_tiles.
 inline constexpr int kMaxCarveTiles = 8;
 /// Tiled carving needs the local block grid to have at most this many cells (the default

@@ -98,9 +98,7 @@ struct PipelineConfig {
 /// Map DDA steps per frame (map.max_voxel_visits_per_frame; default 1'000'000). Tighter than
 /// the map's own kMaxVoxelVisitsPerFrame, which also admits offline exact-walk measurements.
 inline constexpr std::size_t kMaxPipelineVoxelVisitsPerFrame = 2'000'000;
-/// Half extent of the map's local region per axis, in voxels (map.local_half_extent /
-/// map.resolution): bounds one ray's walk to about 3 x this many voxels (default 50 / 50 / 30).
-inline constexpr float kMaxLocalHalfExtentVoxels = 1000.f;
+/// Half extent of the map's local region: kMaxLocalHalfExtentVoxels (occupancy_map_config.hpp).
 /// Voxels the refiner examines per frame: max_detections x 2 passes x refiner.max_voxels_per_box
 /// (default 32 x 2 x 16384 = 1'048'576).
 inline constexpr std::size_t kMaxRefinerVoxelsPerFrame = 2'097'152;

@@ -53,7 +53,8 @@ struct FarFieldConfig {
   int memory_frames = 150;  ///< a wall is forgotten this many frames after its last hit, >= 1
 };
 
-/// kInvalidArgument when a field is out of range (the ranges are in the field comments).
+/// kInvalidArgument when a field is out of range or breaks a relation with another
+/// (params::kFarField and kFarFieldRelations, predict_params.hpp).
 [[nodiscard]] Status validate(const FarFieldConfig& c) noexcept;
 
 /// A disc (top view) whose pixels are not static walls: a tracked walker.

@@ -81,4 +81,26 @@ inline constexpr Param<FarFieldConfig> kFarField[] = {
 };
 static_assert(paths_unique(kFarField));
 
+/// Relations between FarFieldConfig fields, checked by validate(FarFieldConfig) after the ranges
+/// and named by the pipeline's validate().
+inline constexpr Relation<FarFieldConfig> kFarFieldRelations[] = {
+    {"max_range", "must be > far_field.hit_min_range",
+     [](const FarFieldConfig& c) noexcept { return c.max_range > c.hit_min_range; }},
+    // Every range bin of a column must fit, and the grid must hold the range on every side.
+    {"max_range",
+     "must be <= (kFarFieldCellsPerSide / 2 - 1) x far_field.cell_size (12.6 m at 0.2 m)",
+     [](const FarFieldConfig& c) noexcept {
+       return c.max_range / c.cell_size <= static_cast<float>(kFarFieldMaxBins) &&
+              2.f * c.max_range / c.cell_size <= static_cast<float>(kFarFieldCellsPerSide) - 2.f;
+     }},
+    {"max_height", "must be > far_field.min_height",
+     [](const FarFieldConfig& c) noexcept { return c.max_height > c.min_height; }},
+    {"wall_height", "must be in [far_field.min_height, far_field.max_height]",
+     [](const FarFieldConfig& c) noexcept {
+       return c.wall_height >= c.min_height && c.wall_height <= c.max_height;
+     }},
+    {"max_evidence", "must be >= far_field.hit_evidence",
+     [](const FarFieldConfig& c) noexcept { return c.max_evidence >= c.hit_evidence; }},
+};
+
 }  // namespace dynamap::params

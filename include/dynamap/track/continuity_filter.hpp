@@ -34,8 +34,8 @@ struct ContinuityConfig {
   Eigen::Vector3f min_size{0.f, 0.f, 0.f};
   Eigen::Vector3f max_size{1.0f, 1.0f, 2.2f};
 
-  /// kInvalidArgument unless n >= 1, 0 < c <= kMaxVoteWindow, static_votes < dynamic_votes <= c,
-  /// thresholds are finite and 0 <= min_size <= max_size.
+  /// kInvalidArgument when a field is outside its range or breaks a relation with another
+  /// (params::kContinuity and kContinuityRelations, track_params.hpp).
   Status validate() const noexcept;
 };
 

@@ -51,9 +51,9 @@ struct LabelConfig {
   std::size_t dynamic_hold_frames = 90;
   std::size_t hold_min_dynamic_frames = 30;  ///< frames labelled dynamic before a hold applies
 
-  /// kInvalidArgument when a field is outside its range (params::kLabel, track_params.hpp) or
-  /// early_votes > vote_window.
-  Status validate(std::size_t vote_window) const noexcept;
+  /// kInvalidArgument when a field is outside its range (params::kLabel, track_params.hpp).
+  /// early_votes against continuity.vote_window is TrackerConfig's rule (kTrackerRelations).
+  Status validate() const noexcept;
 };
 
 /// What one frame tells about a track; the tracker computes it, LabelState weighs it.

@@ -63,6 +63,19 @@ inline constexpr Param<ContinuityConfig> kContinuity[] = {
 };
 static_assert(paths_unique(kContinuity));
 
+/// Relations between ContinuityConfig fields, checked by ContinuityConfig::validate() after the
+/// ranges and named by the pipeline's validate().
+inline constexpr Relation<ContinuityConfig> kContinuityRelations[] = {
+    {"dynamic_votes", "must be <= tracker.continuity.vote_window",
+     [](const ContinuityConfig& c) noexcept { return c.dynamic_votes <= c.vote_window; }},
+    {"static_votes", "must be < tracker.continuity.dynamic_votes",
+     [](const ContinuityConfig& c) noexcept { return c.static_votes < c.dynamic_votes; }},
+    {"max_size", "must be >= tracker.continuity.min_size on every axis",
+     [](const ContinuityConfig& c) noexcept {
+       return (c.min_size.array() <= c.max_size.array()).all();
+     }},
+};
+
 /// The parameters of LabelConfig, one row per field (PipelineConfig prefix "tracker.label.").
 inline constexpr Param<LabelConfig> kLabel[] = {
     // clang-format off
@@ -100,5 +113,24 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     // clang-format on
 };
 static_assert(paths_unique(kTracker));
+
+/// Relations between TrackerConfig fields and its nested configs' (those within one nested
+/// config are its own table's), checked by TrackerConfig::validate() after the ranges and named
+/// by the pipeline's validate(). The image margin against the camera size is Tracker::init()'s.
+inline constexpr Relation<TrackerConfig> kTrackerRelations[] = {
+    {"continuity.displacement_frames",
+     "must be <= tracker.history_length - 1 (the filter needs n + 2 states)",
+     [](const TrackerConfig& c) noexcept {
+       return c.continuity.displacement_frames + 1 <= c.history_length;
+     }},
+    {"label.early_votes", "must be <= tracker.continuity.vote_window",
+     [](const TrackerConfig& c) noexcept {
+       return c.label.early_votes <= c.continuity.vote_window;
+     }},
+    {"early_displacement_frames", "must be < tracker.continuity.displacement_frames",
+     [](const TrackerConfig& c) noexcept {
+       return c.early_displacement_frames < c.continuity.displacement_frames;
+     }},
+};
 
 }  // namespace dynamap::params

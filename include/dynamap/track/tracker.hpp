@@ -107,7 +107,8 @@ struct TrackerConfig {
   /// camera's view sliding along it, and it votes static (1: off; docs/tracker.md).
   float max_static_share = 0.5f;
 
-  /// kInvalidArgument for out-of-range values (nested configs included).
+  /// kInvalidArgument for out-of-range values or broken relations (nested configs included;
+  /// params::kTrackerRelations, track_params.hpp).
   Status validate() const noexcept;
 };
 
