@@ -1,7 +1,8 @@
-// PipelineConfig's parameter table, assembled from the stage tables (map/map_params.hpp,
-// detect/detect_params.hpp, track/track_params.hpp, predict/predict_params.hpp) plus the
-// pipeline's own fields below. Each stage section adds its prefix ("map.", "tracker.kalman.")
-// to its rows' member paths at compile time; nothing here repeats a stage's range or help.
+// PipelineConfig's parameter and relation tables, assembled from the stage tables
+// (map/map_params.hpp, detect/detect_params.hpp, track/track_params.hpp,
+// predict/predict_params.hpp) plus the pipeline's own fields below. Each stage section adds its
+// prefix ("map.", "tracker.kalman.") to its rows' member paths and its relations' fields at
+// compile time; nothing here repeats a stage's range, relation or help.
 #include "dynamap/pipeline/parameters.hpp"
 
 #include <array>
@@ -112,20 +113,28 @@ struct Text {
   char s[N];
 };
 
-// "<prefix><row path>", one string per row, built at compile time.
-template <class S, std::size_t I>
-struct Path {
-  static constexpr const char* row = S::table[S::first + I].path;
-  static constexpr std::size_t size = length(S::prefix) + length(row) + 1;
+// "<prefix><name>" built at compile time; Name gives prefix and name as constexpr pointers.
+template <class Name>
+struct Joined {
+  static constexpr std::size_t size = length(Name::prefix) + length(Name::name) + 1;
   static constexpr Text<size> text = [] {
     Text<size> t{};
     std::size_t k = 0;
-    for (const char* p = S::prefix; *p != '\0'; ++p) t.s[k++] = *p;
-    for (const char* p = row; *p != '\0'; ++p) t.s[k++] = *p;
+    for (const char* p = Name::prefix; *p != '\0'; ++p) t.s[k++] = *p;
+    for (const char* p = Name::name; *p != '\0'; ++p) t.s[k++] = *p;
     t.s[k] = '\0';
     return t;
   }();
 };
+
+// The dotted path of row I of section S, one string per row.
+template <class S, std::size_t I>
+struct RowName {
+  static constexpr const char* prefix = S::prefix;
+  static constexpr const char* name = S::table[S::first + I].path;
+};
+template <class S, std::size_t I>
+using Path = Joined<RowName<S, I>>;
 
 template <class S, std::size_t I>
 double get(const PipelineConfig& c, int i) noexcept {
@@ -185,6 +194,67 @@ constexpr bool paths_unique() noexcept {
 }
 static_assert(paths_unique(), "every parameter path appears once in the table");
 
+// --- Relations: each stage's Relation table under its section's prefix ----------------------
+
+#define DYNAMAP_RELATIONS(Name, Section, stage_table)                                  \
+  struct Name {                                                                        \
+    static constexpr const char* prefix = Section::prefix;                             \
+    static constexpr const auto& table = stage_table;                                  \
+    static constexpr std::size_t count = std::size(stage_table);                       \
+    static const auto& of(const PipelineConfig& c) noexcept { return Section::of(c); } \
+  }
+
+DYNAMAP_RELATIONS(MapRelations, Map, params::kOccupancyMapRelations);
+DYNAMAP_RELATIONS(DetectorRelations, Detector, params::kUMapDetectorRelations);
+DYNAMAP_RELATIONS(ContinuityRelations, Continuity, params::kContinuityRelations);
+DYNAMAP_RELATIONS(TrackerRelations, Tracker, params::kTrackerRelations);
+DYNAMAP_RELATIONS(FarFieldRelations, FarField, params::kFarFieldRelations);
+
+#undef DYNAMAP_RELATIONS
+
+template <class S, std::size_t I>
+struct RelationName {
+  static constexpr const char* prefix = S::prefix;
+  static constexpr const char* name = S::table[I].field;
+};
+
+template <class S, std::size_t I>
+bool holds(const PipelineConfig& c) noexcept {
+  return S::table[I].holds(S::of(c));
+}
+
+template <class S, std::size_t... I>
+constexpr std::array<Relation<PipelineConfig>, sizeof...(I)> relations(
+    std::index_sequence<I...>) noexcept {
+  return {{Relation<PipelineConfig>{Joined<RelationName<S, I>>::text.s, S::table[I].reason,
+                                    &holds<S, I>}...}};
+}
+template <class... S>
+constexpr std::array<Relation<PipelineConfig>, (S::count + ...)> assemble_relations() noexcept {
+  std::array<Relation<PipelineConfig>, (S::count + ...)> all{};
+  std::size_t k = 0;
+  const auto add = [&](const auto& part) {
+    for (const Relation<PipelineConfig>& r : part) all[k++] = r;
+  };
+  (add(relations<S>(std::make_index_sequence<S::count>{})), ...);
+  return all;
+}
+
+constexpr auto kRelations = assemble_relations<MapRelations, DetectorRelations, ContinuityRelations,
+                                               TrackerRelations, FarFieldRelations>();
+
+// A relation names a field of the table (its YAML key), so the error points at something the
+// user can set.
+constexpr bool relation_fields_known() noexcept {
+  for (const Relation<PipelineConfig>& r : kRelations) {
+    bool found = false;
+    for (const Parameter& p : kTable) found = found || param_detail::same(p.path, r.field);
+    if (!found) return false;
+  }
+  return true;
+}
+static_assert(relation_fields_known(), "every relation's field is a parameter path");
+
 // "12", "0.01", "1e+06": short, exact enough for a value.
 int print_number(char* buf, std::size_t size, double v) noexcept {
   return std::snprintf(buf, size, "%.6g", v);
@@ -224,6 +294,11 @@ ConfigError check_ranges(const PipelineConfig& config) noexcept {
   e.parameter = p;
   e.value = v;
   return e;
+}
+
+ConfigError check_relations(const PipelineConfig& config) noexcept {
+  const Relation<PipelineConfig>* r = first_broken(config, kRelations.data(), kRelations.size());
+  return r == nullptr ? ConfigError{} : ConfigError{Status::kInvalidArgument, r->field, r->reason};
 }
 
 const char* describe(const ConfigError& e, char* buf, std::size_t size) noexcept {

@@ -77,20 +77,11 @@ WorstCaseWork worst_case_work(const PipelineConfig& c) noexcept {
 
 namespace {
 
-// Relations between fields of the map and the detector (each field's own range is the table's).
+// Rules no single stage's Relation table holds: the map's tiled-carving grid (init() checks it
+// too), the thread team against the map's tiling and the CPU indices, and the map's stride
+// against the pipeline's budgets.
 void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
   const OccupancyMapConfig& m = c.map;
-  k.require(m.prob_min < m.prob_miss, "map.prob_min", "must be < map.prob_miss");
-  k.require(m.prob_hit < m.prob_max, "map.prob_max", "must be > map.prob_hit");
-  k.require(m.prob_min <= m.prob_occupied && m.prob_occupied < m.prob_max, "map.prob_occupied",
-            "must be in [map.prob_min, map.prob_max)");
-  k.require(m.max_depth > m.min_depth, "map.max_depth", "must be > map.min_depth");
-  k.require(m.no_return_free_depth <= m.max_depth, "map.no_return_free_depth",
-            "must be <= map.max_depth");
-  k.require((m.local_half_extent.array() <= kMaxLocalHalfExtentVoxels * m.resolution).all(),
-            "map.local_half_extent",
-            "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "
-            "(bounds the length of every ray)");
   k.require(m.carve_tiles == 0 || OccupancyMap::local_grid_cells(m) <= kMaxTileCells,
             "map.local_half_extent",
             "too large for tiled carving: the local block grid must have at most kMaxTileCells "
@@ -99,47 +90,15 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
             "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
   k.require(c.team.helper_first_cpu + c.team.members - 2 <= kMaxCpuIndex, "team.helper_first_cpu",
             "the last helper's CPU (helper_first_cpu + members - 2) must be <= 1023");
-  k.require(c.detector.d_max > c.detector.d_min, "detector.d_max", "must be > detector.d_min");
   k.require(!c.budgets.adaptive_stride || c.budgets.max_pixel_stride >= m.pixel_stride,
             "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");
 }
 
-// Relations between fields of the tracker.
+// The tracker against the camera (Tracker::init checks it against the image size it is given).
 void check_tracker_relations(const PipelineConfig& c, Checker& k) noexcept {
   const TrackerConfig& t = c.tracker;
-  const ContinuityConfig& cc = t.continuity;
-  k.require(cc.displacement_frames + 1 <= t.history_length,
-            "tracker.continuity.displacement_frames",
-            "must be <= tracker.history_length - 1 (the filter needs n + 2 states)");
-  k.require(cc.dynamic_votes <= cc.vote_window, "tracker.continuity.dynamic_votes",
-            "must be <= tracker.continuity.vote_window");
-  k.require(cc.static_votes < cc.dynamic_votes, "tracker.continuity.static_votes",
-            "must be < tracker.continuity.dynamic_votes");
-  k.require((cc.min_size.array() <= cc.max_size.array()).all(), "tracker.continuity.max_size",
-            "must be >= tracker.continuity.min_size on every axis");
-  k.require(t.label.early_votes <= cc.vote_window, "tracker.label.early_votes",
-            "must be <= tracker.continuity.vote_window");
-  k.require(t.early_displacement_frames < cc.displacement_frames,
-            "tracker.early_displacement_frames",
-            "must be < tracker.continuity.displacement_frames");
   k.require(2 * t.image_margin < c.camera.width && 2 * t.image_margin < c.camera.height,
             "tracker.image_margin", "must be < half of camera.width and of camera.height");
-}
-
-// Relations between fields of the far-field layer (far_field_layer.hpp).
-void check_far_field_relations(const PipelineConfig& c, Checker& k) noexcept {
-  const FarFieldConfig& f = c.far_field;
-  k.require(f.max_range > f.hit_min_range, "far_field.max_range",
-            "must be > far_field.hit_min_range");
-  k.require(f.max_range / f.cell_size <= static_cast<float>(kFarFieldMaxBins) &&
-                2.f * f.max_range / f.cell_size <= static_cast<float>(kFarFieldCellsPerSide) - 2.f,
-            "far_field.max_range",
-            "must be <= (kFarFieldCellsPerSide / 2 - 1) x far_field.cell_size (12.6 m at 0.2 m)");
-  k.require(f.max_height > f.min_height, "far_field.max_height", "must be > far_field.min_height");
-  k.require(f.wall_height >= f.min_height && f.wall_height <= f.max_height, "far_field.wall_height",
-            "must be in [far_field.min_height, far_field.max_height]");
-  k.require(f.max_evidence >= f.hit_evidence, "far_field.max_evidence",
-            "must be >= far_field.hit_evidence");
 }
 
 // The derived worst case of the whole frame (only once every field is in range).
@@ -161,10 +120,11 @@ void check_worst_case(const PipelineConfig& c, Checker& k) noexcept {
 ConfigError validate(const PipelineConfig& c) noexcept {
   const ConfigError range = check_ranges(c);
   if (!range.ok()) return range;
+  const ConfigError relation = check_relations(c);
+  if (!relation.ok()) return relation;
   Checker k;
   check_map_relations(c, k);
   check_tracker_relations(c, k);
-  check_far_field_relations(c, k);
   if (!k.failed()) check_worst_case(c, k);
   return k.error;
 }

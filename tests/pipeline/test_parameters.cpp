@@ -1,7 +1,9 @@
 // The parameter table (parameters.hpp): every field has a range that validate() enforces by
 // name, every value in range is accepted by every stage (no anonymous "pipeline" refusals), the
 // table's accessors reach the field they name, each stage's own validation refuses what its
-// table's ranges refuse, and the README's parameter table names real fields with their defaults.
+// table's ranges refuse, every relation of a stage's Relation table is refused by the stage and
+// by validate() under its field and reason, and the README's parameter table names real fields
+// with their defaults.
 #include <gtest/gtest.h>
 
 #include <cctype>
@@ -229,6 +231,180 @@ TEST(Parameters, StageValidationComesFromTheStageTables) {
       params::kMarkovPredictor,
       [&](const MarkovPredictorConfig& c) { return ok(predictor->init(c)); }, "predictor");
   EXPECT_GT(n, 150);
+}
+
+// --- Relations: each stage's Relation table, enforced by the stage and by validate() --------
+
+// One relation broken minimally from the defaults, with the field and reason the pipeline has
+// always reported for it (so a table edit cannot silently change the message).
+struct Breaking {
+  const char* field;   ///< PipelineConfig path validate() names
+  const char* reason;  ///< validate()'s reason
+  void (*apply)(PipelineConfig& c);
+};
+
+// Every row of `table` is broken by one of `cases` (a row nothing breaks fails the test); each
+// case stays within the ranges, is refused by the stage (`accepts`) and by validate() and
+// Pipeline::init, which name the row's field under `prefix` with the row's reason.
+template <class Config, std::size_t N, class Of, class Accepts>
+void expect_relations_enforced(const Relation<Config> (&table)[N], const char* prefix, Of of,
+                               Accepts accepts, const std::vector<Breaking>& cases) {
+  const PipelineConfig defaults;
+  EXPECT_TRUE(validate(defaults).ok());
+  EXPECT_EQ(first_broken(of(defaults), table, N), nullptr) << prefix;
+  EXPECT_TRUE(accepts(of(defaults))) << prefix;
+  auto pipeline = std::make_unique<Pipeline>();
+  std::vector<bool> broken(N, false);
+  for (const Breaking& b : cases) {
+    PipelineConfig c;
+    b.apply(c);
+    ASSERT_TRUE(check_ranges(c).ok()) << b.field << ": the break leaves a range";
+    const Relation<Config>* r = first_broken(of(c), table, N);
+    ASSERT_NE(r, nullptr) << b.field << ": no relation of the " << prefix << " table refuses it";
+    broken[static_cast<std::size_t>(r - table)] = true;
+    EXPECT_EQ(std::string(prefix) + r->field, b.field);
+    EXPECT_FALSE(accepts(of(c))) << b.field << ": the stage accepts it";
+    const ConfigError e = validate(c);
+    EXPECT_EQ(e.status, Status::kInvalidArgument) << b.field;
+    EXPECT_STREQ(e.field, b.field);
+    EXPECT_STREQ(e.reason, b.reason) << b.field;
+    EXPECT_EQ(e.reason, r->reason) << b.field << ": the reason is not the table's";
+    EXPECT_EQ(e.parameter, nullptr) << b.field;
+    ConfigError from_init;
+    EXPECT_EQ(pipeline->init(c, &from_init), Status::kInvalidArgument) << b.field;
+    EXPECT_STREQ(from_init.field, b.field);
+  }
+  for (std::size_t k = 0; k < N; ++k) {
+    EXPECT_TRUE(broken[k]) << prefix << table[k].field << " (" << table[k].reason
+                           << "): no case breaks this relation";
+  }
+}
+
+float above(float x) {
+  return std::nextafter(x, INFINITY);
+}
+
+TEST(Relations, MapRelationsAreEnforcedByTheMapAndByValidate) {
+  auto map = std::make_unique<OccupancyMap>();
+  expect_relations_enforced(
+      params::kOccupancyMapRelations, "map.", [](const PipelineConfig& c) { return c.map; },
+      [&](const OccupancyMapConfig& c) { return ok(map->init(c)); },
+      {
+          {"map.prob_min", "must be < map.prob_miss",
+           [](PipelineConfig& c) { c.map.prob_min = c.map.prob_miss; }},
+          {"map.prob_max", "must be > map.prob_hit",
+           [](PipelineConfig& c) { c.map.prob_max = c.map.prob_hit; }},
+          {"map.prob_occupied", "must be in [map.prob_min, map.prob_max)",
+           [](PipelineConfig& c) { c.map.prob_occupied = c.map.prob_max; }},
+          {"map.prob_occupied", "must be in [map.prob_min, map.prob_max)",
+           [](PipelineConfig& c) {
+             c.map.prob_min = 0.3f;
+             c.map.prob_occupied = 0.29f;
+           }},
+          {"map.max_depth", "must be > map.min_depth",
+           [](PipelineConfig& c) { c.map.max_depth = c.map.min_depth; }},
+          {"map.no_return_free_depth", "must be <= map.max_depth",
+           [](PipelineConfig& c) { c.map.no_return_free_depth = above(c.map.max_depth); }},
+          {"map.local_half_extent",
+           "must be <= kMaxLocalHalfExtentVoxels (1000) x map.resolution on every axis "
+           "(bounds the length of every ray)",
+           [](PipelineConfig& c) {
+             c.map.local_half_extent.z() = above(kMaxLocalHalfExtentVoxels * c.map.resolution);
+           }},
+      });
+}
+
+TEST(Relations, DetectorRelationsAreEnforcedByTheDetectorAndByValidate) {
+  auto detector = std::make_unique<UMapDetector>();
+  expect_relations_enforced(
+      params::kUMapDetectorRelations, "detector.",
+      [](const PipelineConfig& c) { return c.detector; },
+      [&](const UMapDetectorConfig& c) { return ok(detector->init(c)); },
+      {
+          {"detector.d_max", "must be > detector.d_min",
+           [](PipelineConfig& c) { c.detector.d_max = c.detector.d_min; }},
+      });
+}
+
+TEST(Relations, TrackRelationsAreEnforcedByTheTrackConfigsAndByValidate) {
+  expect_relations_enforced(
+      params::kContinuityRelations, "tracker.continuity.",
+      [](const PipelineConfig& c) { return c.tracker.continuity; },
+      [](const ContinuityConfig& c) { return ok(c.validate()); },
+      {
+          {"tracker.continuity.dynamic_votes", "must be <= tracker.continuity.vote_window",
+           [](PipelineConfig& c) {
+             c.tracker.continuity.dynamic_votes = c.tracker.continuity.vote_window + 1;
+           }},
+          {"tracker.continuity.static_votes", "must be < tracker.continuity.dynamic_votes",
+           [](PipelineConfig& c) {
+             c.tracker.continuity.static_votes = c.tracker.continuity.dynamic_votes;
+           }},
+          {"tracker.continuity.max_size", "must be >= tracker.continuity.min_size on every axis",
+           [](PipelineConfig& c) {
+             c.tracker.continuity.min_size.y() = above(c.tracker.continuity.max_size.y());
+           }},
+      });
+  // The tracker's own validate() (its nested configs' tables included) and Tracker::init.
+  expect_relations_enforced(
+      params::kContinuityRelations, "tracker.continuity.",
+      [](const PipelineConfig& c) { return c.tracker.continuity; },
+      [](const ContinuityConfig& c) {
+        TrackerConfig t;
+        t.continuity = c;
+        return ok(t.validate());
+      },
+      {
+          {"tracker.continuity.dynamic_votes", "must be <= tracker.continuity.vote_window",
+           [](PipelineConfig& c) { c.tracker.continuity.vote_window = 15; }},
+          {"tracker.continuity.static_votes", "must be < tracker.continuity.dynamic_votes",
+           [](PipelineConfig& c) { c.tracker.continuity.dynamic_votes = 4; }},
+          {"tracker.continuity.max_size", "must be >= tracker.continuity.min_size on every axis",
+           [](PipelineConfig& c) { c.tracker.continuity.min_size.x() = 1.5f; }},
+      });
+  auto tracker = std::make_unique<Tracker>();
+  expect_relations_enforced(
+      params::kTrackerRelations, "tracker.", [](const PipelineConfig& c) { return c.tracker; },
+      [&](const TrackerConfig& c) { return ok(tracker->init(c, 640, 480)); },
+      {
+          {"tracker.continuity.displacement_frames",
+           "must be <= tracker.history_length - 1 (the filter needs n + 2 states)",
+           [](PipelineConfig& c) {
+             c.tracker.history_length = c.tracker.continuity.displacement_frames;
+           }},
+          {"tracker.label.early_votes", "must be <= tracker.continuity.vote_window",
+           [](PipelineConfig& c) {
+             c.tracker.label.early_votes = c.tracker.continuity.vote_window + 1;
+           }},
+          {"tracker.early_displacement_frames", "must be < tracker.continuity.displacement_frames",
+           [](PipelineConfig& c) {
+             c.tracker.early_displacement_frames = c.tracker.continuity.displacement_frames;
+           }},
+      });
+}
+
+TEST(Relations, FarFieldRelationsAreEnforcedByTheLayerAndByValidate) {
+  auto layer = std::make_unique<FarFieldLayer>();
+  expect_relations_enforced(
+      params::kFarFieldRelations, "far_field.", [](const PipelineConfig& c) { return c.far_field; },
+      [&](const FarFieldConfig& c) { return ok(layer->init(c, 0.f)); },
+      {
+          {"far_field.max_range", "must be > far_field.hit_min_range",
+           [](PipelineConfig& c) { c.far_field.hit_min_range = c.far_field.max_range; }},
+          {"far_field.max_range",
+           "must be <= (kFarFieldCellsPerSide / 2 - 1) x far_field.cell_size (12.6 m at 0.2 m)",
+           [](PipelineConfig& c) { c.far_field.max_range = 12.7f; }},
+          {"far_field.max_height", "must be > far_field.min_height",
+           [](PipelineConfig& c) { c.far_field.max_height = c.far_field.min_height; }},
+          {"far_field.wall_height", "must be in [far_field.min_height, far_field.max_height]",
+           [](PipelineConfig& c) { c.far_field.wall_height = above(c.far_field.max_height); }},
+          {"far_field.wall_height", "must be in [far_field.min_height, far_field.max_height]",
+           [](PipelineConfig& c) {
+             c.far_field.wall_height = std::nextafter(c.far_field.min_height, -INFINITY);
+           }},
+          {"far_field.max_evidence", "must be >= far_field.hit_evidence",
+           [](PipelineConfig& c) { c.far_field.max_evidence = c.far_field.hit_evidence - 1; }},
+      });
 }
 
 // --- The README's "The parameters you set" table against the code ---------------------------

@@ -142,8 +142,9 @@ struct ConfigError {
 };
 
 /// Checks every field of `config` against its range (the parameter table, parameters.hpp), then
-/// the relations between fields and the worst-case work; returns the first problem found
-/// (status kOk when none). A configuration it accepts is accepted by every stage's init.
+/// the relations between fields (the stages' Relation tables, then those between stages) and the
+/// worst-case work; returns the first problem found (status kOk when none). A configuration it
+/// accepts is accepted by every stage's init.
 ConfigError validate(const PipelineConfig& config) noexcept;
 
 }  // namespace dynamap
