@@ -2,6 +2,7 @@
 #include <cmath>
 #include <limits>
 
+#include "dynamap/detect/detail/umap_histogram.hpp"
 #include "dynamap/pipeline/parameters.hpp"
 #include "dynamap/pipeline/pipeline_config.hpp"
 
@@ -94,6 +95,21 @@ void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
             "budgets.max_pixel_stride", "must be >= map.pixel_stride in adaptive mode");
 }
 
+// The detector's depth band against the camera's depth unit: UMapDetector::detect bins raw
+// 16-bit depths and refuses every frame whose binning make_umap_binning refuses.
+void check_detector_relations(const PipelineConfig& c, Checker& k) noexcept {
+  const UMapDetectorConfig& d = c.detector;
+  const float scale = c.camera.depth_scale;
+  UMapBinning b;
+  const bool band_ok = ok(make_umap_binning(d.d_min, d.d_max, scale, 1, &b));
+  k.require(band_ok, "detector.d_max",
+            "must be <= 65535 x camera.depth_scale (the largest raw depth) and leave a raw depth "
+            "value above detector.d_min");
+  k.require(!band_ok || ok(make_umap_binning(d.d_min, d.d_max, scale, d.bins, &b)), "detector.bins",
+            "must be <= the number of raw depth values in [detector.d_min, detector.d_max] at "
+            "camera.depth_scale");
+}
+
 // The tracker against the camera (Tracker::init checks it against the image size it is given).
 void check_tracker_relations(const PipelineConfig& c, Checker& k) noexcept {
   const TrackerConfig& t = c.tracker;
@@ -124,6 +140,7 @@ ConfigError validate(const PipelineConfig& c) noexcept {
   if (!relation.ok()) return relation;
   Checker k;
   check_map_relations(c, k);
+  check_detector_relations(c, k);
   check_tracker_relations(c, k);
   if (!k.failed()) check_worst_case(c, k);
   return k.error;

@@ -407,6 +407,48 @@ TEST(Relations, FarFieldRelationsAreEnforcedByTheLayerAndByValidate) {
       });
 }
 
+// The detector's depth band against the camera's depth unit (a rule between two sections, in
+// pipeline_config.cpp): validate() refuses what UMapDetector::detect would refuse on every
+// frame, and accepts what it takes. (It used to accept both: detector.d_max = 14 m with a TUM
+// camera, 1/5000 m per unit, passed validate() and then failed every frame's detection.)
+TEST(Relations, DetectorDepthBandFitsTheCameraDepthUnit) {
+  struct Case {
+    float depth_scale;
+    float d_max;
+    int bins;
+    const char* refused;  ///< field validate() names, nullptr: accepted
+  };
+  const Case cases[] = {
+      {1.f / 5000.f, 8.f, 120, nullptr},            // the defaults on TUM / Bonn data
+      {1.f / 5000.f, 13.f, 120, nullptr},           // 65000 raw
+      {1.f / 5000.f, 14.f, 120, "detector.d_max"},  // 70000 raw: beyond uint16
+      {0.001f, 65.f, 120, nullptr},
+      {0.001f, 66.f, 120, "detector.d_max"},
+      {0.1f, 8.f, 80, nullptr},           // raw 1..80: 80 values
+      {0.1f, 8.f, 81, "detector.bins"},   // more bins than raw values
+      {0.1f, 8.f, 120, "detector.bins"},  // the default bins at 10 cm per unit
+  };
+  auto detector = std::make_unique<UMapDetector>();
+  const std::vector<std::uint16_t> depth(640 * 480, 1000);
+  for (const Case& k : cases) {
+    PipelineConfig c;
+    c.camera.depth_scale = k.depth_scale;
+    c.detector.d_max = k.d_max;
+    c.detector.bins = k.bins;
+    const ConfigError e = validate(c);
+    if (k.refused == nullptr) {
+      EXPECT_TRUE(e.ok()) << k.d_max << " m, " << k.bins << " bins: " << e.field;
+    } else {
+      EXPECT_STREQ(e.field, k.refused) << k.d_max << " m, " << k.bins << " bins";
+    }
+    ASSERT_EQ(detector->init(c.detector), Status::kOk);
+    DetectionList out;
+    const Status s =
+        detector->detect(DepthView{depth.data(), 640, 480, 1280}, c.camera, Pose{}, out);
+    EXPECT_EQ(ok(s), k.refused == nullptr) << k.d_max << " m, " << k.bins << " bins";
+  }
+}
+
 // --- The README's "The parameters you set" table against the code ---------------------------
 
 std::string read_text(const std::string& path) {
