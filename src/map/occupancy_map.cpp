@@ -66,7 +66,6 @@ Status OccupancyMap::init(const OccupancyMapConfig& c) noexcept {
   // region is too large for kLocalGridCells.
   const std::array<std::int32_t, 3> grid_dim = local_grid_dims(c);
   const std::size_t cells = local_grid_cells(c);
-  if (c.carve_tiles > 0 && cells > kMaxTileCells) return Status::kInvalidArgument;
   if (integrator_.frame_open()) return Status::kInvalidArgument;  // end_integration() first
 
   params_.config = c;

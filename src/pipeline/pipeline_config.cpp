@@ -78,15 +78,10 @@ WorstCaseWork worst_case_work(const PipelineConfig& c) noexcept {
 
 namespace {
 
-// Rules no single stage's Relation table holds: the map's tiled-carving grid (init() checks it
-// too), the thread team against the map's tiling and the CPU indices, and the map's stride
-// against the pipeline's budgets.
+// Rules no single stage's Relation table holds: the thread team against the map's tiling and
+// the CPU indices, and the map's stride against the pipeline's budgets.
 void check_map_relations(const PipelineConfig& c, Checker& k) noexcept {
   const OccupancyMapConfig& m = c.map;
-  k.require(m.carve_tiles == 0 || OccupancyMap::local_grid_cells(m) <= kMaxTileCells,
-            "map.local_half_extent",
-            "too large for tiled carving: the local block grid must have at most kMaxTileCells "
-            "(4096) cells when map.carve_tiles > 0");
   k.require(c.team.members == 1 || m.carve_tiles > 0, "team.members",
             "must be 1 unless map.carve_tiles > 0 (only tiled carving runs on several threads)");
   k.require(c.team.helper_first_cpu + c.team.members - 2 <= kMaxCpuIndex, "team.helper_first_cpu",

@@ -311,6 +311,13 @@ TEST(Relations, MapRelationsAreEnforcedByTheMapAndByValidate) {
            [](PipelineConfig& c) {
              c.map.local_half_extent.z() = above(kMaxLocalHalfExtentVoxels * c.map.resolution);
            }},
+          {"map.local_half_extent",
+           "too large for tiled carving: the local block grid must have at most kMaxTileCells "
+           "(4096) cells when map.carve_tiles > 0",
+           [](PipelineConfig& c) {
+             c.map.carve_tiles = 4;
+             c.map.local_half_extent = Eigen::Vector3f(20.f, 20.f, 5.f);
+           }},
       });
 }
 

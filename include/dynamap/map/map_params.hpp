@@ -65,6 +65,13 @@ inline constexpr Relation<OccupancyMapConfig> kOccupancyMapRelations[] = {
      [](const OccupancyMapConfig& c) noexcept {
        return (c.local_half_extent.array() <= kMaxLocalHalfExtentVoxels * c.resolution).all();
      }},
+    // Each tile's scratch holds a mark set per cell of the local block grid.
+    {"local_half_extent",
+     "too large for tiled carving: the local block grid must have at most kMaxTileCells "
+     "(4096) cells when map.carve_tiles > 0",
+     [](const OccupancyMapConfig& c) noexcept {
+       return c.carve_tiles == 0 || OccupancyMap::local_grid_cells(c) <= kMaxTileCells;
+     }},
 };
 
 /// The parameters of MapRefinerConfig, one row per field (PipelineConfig prefix "refiner.").
