@@ -42,6 +42,12 @@ constexpr dynamap::Stamp kFrameNs = 33'333'333;
 /// The early-stop count benchmarked against the exact walk (free_ray_early_stop = 0).
 constexpr int kEarlyStop = 12;
 
+/// Index of pixel (u, v) in a row-major image `width` pixels wide, widened before multiplying.
+std::size_t pixel_index(int u, int v, int width) {
+  return static_cast<std::size_t>(v) * static_cast<std::size_t>(width) +
+         static_cast<std::size_t>(u);
+}
+
 struct Plane {
   Vec3 point, normal;
 };
@@ -129,7 +135,7 @@ const Dataset& dataset() {
       f.pose.translation =
           Vec3(-2.2f + 1.2f * s, -0.8f + 1.2f * s, 1.3f + 0.1f * std::sin(6.f * s));
       f.pose.rotation = camera_rotation(0.7f * std::sin(2.f * 3.14159f * s), 0.12f);
-      f.depth.assign(static_cast<std::size_t>(c.width * c.height), 0);
+      f.depth.assign(pixel_index(0, c.height, c.width), 0);  // width x height zeros
       for (int v = 0; v < c.height; ++v) {
         for (int u = 0; u < c.width; ++u) {
           const Vec3 dir = f.pose.rotation * Vec3((static_cast<float>(u) - c.cx) / c.fx,
@@ -137,7 +143,7 @@ const Dataset& dataset() {
           float z = scene.trace(f.pose.translation, dir);
           if (!std::isfinite(z) || uni(rng) < 0.01f) continue;  // 1 % dropouts
           z += 0.0015f * z * z * gauss(rng);                    // RealSense-like noise
-          f.depth[static_cast<std::size_t>(v * c.width + u)] =
+          f.depth[pixel_index(u, v, c.width)] =
               static_cast<std::uint16_t>(std::lround(std::clamp(z, 0.f, 60.f) / c.depth_scale));
         }
       }
@@ -147,7 +153,7 @@ const Dataset& dataset() {
       // not camera z).
       for (int v = cfg.pixel_margin; v < c.height - cfg.pixel_margin; v += cfg.pixel_stride) {
         for (int u = cfg.pixel_margin; u < c.width - cfg.pixel_margin; u += cfg.pixel_stride) {
-          const std::uint16_t raw = f.depth[static_cast<std::size_t>(v * c.width + u)];
+          const std::uint16_t raw = f.depth[pixel_index(u, v, c.width)];
           float z = static_cast<float>(raw) * c.depth_scale;
           if (raw == 0) {
             ++d.unmeasured;
