@@ -44,8 +44,9 @@ struct Scene {
   Box3 body(std::size_t i, int f) const {
     const float t = static_cast<float>(f) / 30.f;
     const float phase = static_cast<float>(i);
-    const Eigen::Vector3f centre(2.f + 4.f * static_cast<float>(i % 8),
-                                 -14.f + 4.f * static_cast<float>(i / 8), 0.85f);
+    const std::size_t column = i % 8, row = i / 8;  // eight walkers to a grid row
+    const Eigen::Vector3f centre(2.f + 4.f * static_cast<float>(column),
+                                 -14.f + 4.f * static_cast<float>(row), 0.85f);
     const Eigen::Vector3f c = centre + 1.5f * Eigen::Vector3f(std::cos(t / 1.5f + phase),
                                                               std::sin(t / 1.5f + phase), 0.f);
     return Box3::from_center_size(c, Eigen::Vector3f(0.5f, 0.5f, 1.7f));
