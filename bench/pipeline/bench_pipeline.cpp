@@ -143,109 +143,125 @@ int compare_threads(const PipelineConfig& base, const Sequence& seq, int frames,
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   bool wall = false;
-  std::vector<int> numbers;
+  int frames = 300, passes = 3, tiles = 4, period_ms = 0;
   std::vector<int> threads;
-  int tiles = 4;
-  int period_ms = 0;
+};
+
+/// Reads the command line into `opt`; on a bad or out-of-range argument prints why and the
+/// usage and returns false.
+bool parse_args(int argc, char** argv, Options& opt) {
+  std::vector<int> numbers;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--wall") {
-      wall = true;
+      opt.wall = true;
     } else if (arg.rfind("--threads=", 0) == 0) {
       for (std::size_t at = 10; at < arg.size();) {
         const std::size_t comma = std::min(arg.find(',', at), arg.size());
-        threads.push_back(std::atoi(arg.substr(at, comma - at).c_str()));
+        opt.threads.push_back(std::atoi(arg.substr(at, comma - at).c_str()));
         at = comma + 1;
       }
     } else if (arg.rfind("--tiles=", 0) == 0) {
-      tiles = std::atoi(arg.c_str() + 8);
+      opt.tiles = std::atoi(arg.c_str() + 8);
     } else if (arg.rfind("--period-ms=", 0) == 0) {
-      period_ms = std::atoi(arg.c_str() + 12);
+      opt.period_ms = std::atoi(arg.c_str() + 12);
     } else if (!arg.empty() && arg.find_first_not_of("0123456789") == std::string::npos &&
                numbers.size() < 2) {
       numbers.push_back(std::atoi(argv[i]));
     } else {
       std::fprintf(stderr, "bench_pipeline: unknown argument '%s'\n%s", arg.c_str(), kUsage);
-      return 2;
+      return false;
     }
   }
-  const int frames = numbers.size() > 0 ? numbers[0] : 300;
-  const int passes = numbers.size() > 1 ? numbers[1] : 3;
-  const bool threads_ok = std::all_of(threads.begin(), threads.end(), [](int n) {
+  if (numbers.size() > 0) opt.frames = numbers[0];
+  if (numbers.size() > 1) opt.passes = numbers[1];
+  const bool threads_ok = std::all_of(opt.threads.begin(), opt.threads.end(), [](int n) {
     return n >= 1 && n <= static_cast<int>(kMaxTeamMembers);
   });
-  if (frames < 2 || passes < 1 || tiles < 1 || tiles > kMaxCarveTiles || !threads_ok ||
-      period_ms < 0 || period_ms > 1000) {
+  if (opt.frames < 2 || opt.passes < 1 || opt.tiles < 1 || opt.tiles > kMaxCarveTiles ||
+      !threads_ok || opt.period_ms < 0 || opt.period_ms > 1000) {
     std::fprintf(stderr,
                  "bench_pipeline: need frames >= 2, passes >= 1, tiles 1..%d, threads 1..%d, "
                  "period-ms 0..1000\n%s",
                  static_cast<int>(kMaxCarveTiles), static_cast<int>(kMaxTeamMembers), kUsage);
-    return 2;
+    return false;
   }
-  const Pipeline::Clock clock = wall ? &wall_clock : &cpu_clock;
-  PipelineConfig config;
-  std::printf("rendering %d frames of 640x480 ...\n", frames);
-  const Sequence seq = make_sequence(config.camera, frames);
-  if (!threads.empty())
-    return compare_threads(config, seq, frames, passes, tiles, threads, period_ms);
+  return true;
+}
 
-  auto pipeline = std::make_unique<Pipeline>();
-  auto out = std::make_unique<FrameOutput>();
-  // Each pass re-initialises (a fresh map), timing every frame; statistics accumulate over passes
-  // except the first frame of each pass (cold caches, empty map).
+/// The p-quantile (nearest rank) of `v`.
+std::uint64_t pct(std::vector<std::uint64_t> v, double p) {
+  std::sort(v.begin(), v.end());
+  const std::size_t r = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, r == 0 ? 0 : r - 1)];
+}
+
+/// Per-frame figures of the sequence, over all passes, each pass's first frame left out.
+struct SequenceTimes {
   std::array<std::vector<std::uint64_t>, kStageCount> stage;
   std::vector<std::uint64_t> total;
   std::size_t dynamic_tracks = 0, predictions = 0;
+};
+
+/// Runs the sequence `passes` times; false when init or a frame fails.
+bool run_sequence(Pipeline& pipeline, FrameOutput& out, const PipelineConfig& config,
+                  Pipeline::Clock clock, const Sequence& seq, int frames, int passes,
+                  SequenceTimes& times) {
+  // Each pass re-initialises (a fresh map), timing every frame; statistics accumulate over passes
+  // except the first frame of each pass (cold caches, empty map).
   for (int pass = 0; pass < passes; ++pass) {
-    if (!ok(pipeline->init(config))) return 1;
-    pipeline->set_clock(clock);
+    if (!ok(pipeline.init(config))) return false;
+    pipeline.set_clock(clock);
     for (int i = 0; i < frames; ++i) {
       Frame f;
       f.stamp = static_cast<Stamp>(i + 1) * 33'333'333ULL;
       f.T_map_camera = seq.poses[static_cast<std::size_t>(i)];
       f.depth = DepthView{seq.images[static_cast<std::size_t>(i)].data(), config.camera.width,
                           config.camera.height, config.camera.width * 2};
-      if (!ok(pipeline->process(f, *out))) return 1;
+      if (!ok(pipeline.process(f, out))) return false;
       if (i == 0) continue;
-      for (std::size_t k = 0; k < kStageCount; ++k) stage[k].push_back(out->stage_ns[k]);
-      total.push_back(out->total_ns);
-      dynamic_tracks += out->work.dynamic_tracks;
-      predictions += out->num_predictions;
+      for (std::size_t k = 0; k < kStageCount; ++k) times.stage[k].push_back(out.stage_ns[k]);
+      times.total.push_back(out.total_ns);
+      times.dynamic_tracks += out.work.dynamic_tracks;
+      times.predictions += out.num_predictions;
     }
   }
-  auto pct = [](std::vector<std::uint64_t> v, double p) {
-    std::sort(v.begin(), v.end());
-    const std::size_t r = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-    return v[std::min(v.size() - 1, r == 0 ? 0 : r - 1)];
-  };
-  const double total_med = ms(pct(total, 0.5));
+  return true;
+}
+
+/// Prints the Table II layout; returns the whole frame's median in ms.
+double print_table(const SequenceTimes& times, bool wall) {
+  const double total_med = ms(pct(times.total, 0.5));
   double sum_medians = 0;
-  for (std::size_t k = 0; k < kStageCount; ++k) sum_medians += ms(pct(stage[k], 0.5));
+  for (std::size_t k = 0; k < kStageCount; ++k) sum_medians += ms(pct(times.stage[k], 0.5));
 
   std::printf("\nTable II (this machine, one core, %zu frames, %s time): time per frame\n",
-              total.size(), wall ? "wall" : "thread CPU");
+              times.total.size(), wall ? "wall" : "thread CPU");
   std::printf("| module | median (ms) | p99 (ms) | share of median |\n|---|---|---|---|\n");
   for (std::size_t k = 0; k < kStageCount; ++k) {
-    const double m = ms(pct(stage[k], 0.5));
+    const double m = ms(pct(times.stage[k], 0.5));
     std::printf("| %s | %.3f | %.3f | %.0f %% |\n", to_string(static_cast<Stage>(k)), m,
-                ms(pct(stage[k], 0.99)), 100.0 * m / sum_medians);
+                ms(pct(times.stage[k], 0.99)), 100.0 * m / sum_medians);
   }
-  std::printf("| **total** | **%.3f** | **%.3f** | |\n", total_med, ms(pct(total, 0.99)));
+  std::printf("| **total** | **%.3f** | **%.3f** | |\n", total_med, ms(pct(times.total, 0.99)));
   std::printf("(mean %.1f dynamic tracks and %.1f predictions per frame)\n",
-              static_cast<double>(dynamic_tracks) / static_cast<double>(total.size()),
-              static_cast<double>(predictions) / static_cast<double>(total.size()));
+              static_cast<double>(times.dynamic_tracks) / static_cast<double>(times.total.size()),
+              static_cast<double>(times.predictions) / static_cast<double>(times.total.size()));
+  return total_med;
+}
 
-  // Worst-case frames: every pixel at max range (rays), and clutter (detections, a full
-  // tracker). Each is timed 30 times on a warm pipeline; the median is reported.
+/// Worst-case frames: every pixel at max range (rays), and clutter (detections, a full
+/// tracker). Each is timed 30 times on a warm pipeline; the median is reported against the
+/// sequence's median `total_med`. False when init or a frame fails.
+bool run_worst_cases(Pipeline& pipeline, FrameOutput& out, const PipelineConfig& config,
+                     double total_med) {
   std::vector<std::uint16_t> px(
       static_cast<std::size_t>(config.camera.width * config.camera.height));
   std::printf("\nWorst-case frames (median of 30, ms): \n");
   for (WorstCase kind : {WorstCase::kMaxRange, WorstCase::kClutter}) {
-    if (!ok(pipeline->init(config))) return 1;
+    if (!ok(pipeline.init(config))) return false;
     Frame f;
     f.T_map_camera = test::level_camera(Eigen::Vector3f(0.f, 0.f, 1.3f));
     f.depth =
@@ -254,17 +270,39 @@ int main(int argc, char** argv) {
     std::size_t max_tracks = 0;
     for (int i = 0; i < 30; ++i) {
       f.stamp = static_cast<Stamp>(i + 1) * 33'333'333ULL;
-      if (!ok(pipeline->process(f, *out))) return 1;
-      t.push_back(out->total_ns);
-      max_tracks = std::max(max_tracks, out->num_obstacles);
+      if (!ok(pipeline.process(f, out))) return false;
+      t.push_back(out.total_ns);
+      max_tracks = std::max(max_tracks, out.num_obstacles);
     }
     const double w = ms(pct(t, 0.5));
     std::printf(
         "  %-9s total %.3f ms = %.2fx the sequence median (rays %zu, detections %zu, "
         "tracks %zu)\n",
-        kind == WorstCase::kMaxRange ? "max-range" : "clutter", w, w / total_med, out->work.rays,
-        out->work.detections, max_tracks);
+        kind == WorstCase::kMaxRange ? "max-range" : "clutter", w, w / total_med, out.work.rays,
+        out.work.detections, max_tracks);
   }
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (!parse_args(argc, argv, opt)) return 2;
+  const Pipeline::Clock clock = opt.wall ? &wall_clock : &cpu_clock;
+  PipelineConfig config;
+  std::printf("rendering %d frames of 640x480 ...\n", opt.frames);
+  const Sequence seq = make_sequence(config.camera, opt.frames);
+  if (!opt.threads.empty()) {
+    return compare_threads(config, seq, opt.frames, opt.passes, opt.tiles, opt.threads,
+                           opt.period_ms);
+  }
+  auto pipeline = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  SequenceTimes times;
+  if (!run_sequence(*pipeline, *out, config, clock, seq, opt.frames, opt.passes, times)) return 1;
+  const double total_med = print_table(times, opt.wall);
+  if (!run_worst_cases(*pipeline, *out, config, total_med)) return 1;
   std::printf("\nfootprint: %.1f MiB (Pipeline::memory_bytes)\n",
               static_cast<double>(Pipeline::memory_bytes()) / (1024.0 * 1024.0));
   return 0;
