@@ -48,81 +48,93 @@ bool arg(const char* a, const char* name, std::string& value) {
   return true;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   std::uint64_t frames = 100'000, checkpoint = 10'000, seed = 1;
   double bound_ms = kDefaultBoundMs;
   bool wall = false;
+};
+
+/// Reads the command line into `opt`; on a bad argument or too few checkpoints prints why and
+/// returns false.
+bool parse_args(int argc, char** argv, Options& opt) {
   for (int i = 1; i < argc; ++i) {
     std::string v;
     if (arg(argv[i], "--frames", v)) {
-      frames = std::strtoull(v.c_str(), nullptr, 10);
+      opt.frames = std::strtoull(v.c_str(), nullptr, 10);
     } else if (arg(argv[i], "--checkpoint", v)) {
-      checkpoint = std::strtoull(v.c_str(), nullptr, 10);
+      opt.checkpoint = std::strtoull(v.c_str(), nullptr, 10);
     } else if (arg(argv[i], "--seed", v)) {
-      seed = std::strtoull(v.c_str(), nullptr, 10);
+      opt.seed = std::strtoull(v.c_str(), nullptr, 10);
     } else if (arg(argv[i], "--bound-ms", v)) {
-      bound_ms = std::strtod(v.c_str(), nullptr);
+      opt.bound_ms = std::strtod(v.c_str(), nullptr);
     } else if (std::strcmp(argv[i], "--wall") == 0) {
-      wall = true;
+      opt.wall = true;
     } else {
       std::fprintf(stderr,
                    "usage: %s [--frames=N] [--checkpoint=N] [--seed=N] [--bound-ms=X] "
                    "[--wall]\n",
                    argv[0]);
-      return 2;
+      return false;
     }
   }
-  if (checkpoint == 0 || frames < 2 * checkpoint) {
+  if (opt.checkpoint == 0 || opt.frames < 2 * opt.checkpoint) {
     std::fprintf(stderr, "need at least two checkpoints (the first is the warm-up)\n");
-    return 2;
+    return false;
   }
+  return true;
+}
+
+/// Prints one checkpoint's table row and its refused-by-kind line.
+void print_checkpoint(const test::SoakCheckpoint& c) {
+  const RunnerCounters& r = c.runner;
+  std::printf("| %" PRIu64 " | %.2f | %.2f | %.2f | %.2f | %" PRIu64 " | %" PRIu64 " | %" PRIu64
+              " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64
+              " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " |\n",
+              c.frames, mib(c.rss_bytes), ms(c.worst_frame_ns), ms(c.p999_frame_ns),
+              ms(c.median_frame_ns), c.over_budget, r.submitted, r.processed, r.failed,
+              r.rejected_full, r.rejected_bad, r.rejected_stopped, r.dropped_at_stop,
+              c.pipeline.rays_dropped, c.pipeline.blocks_evicted, c.pipeline.detections_dropped,
+              c.pipeline.tracks_refused, c.snapshots_seen);
+  std::printf("  refused by kind:");
+  for (std::size_t i = 0; i < test::kSoakKinds; ++i) {
+    const auto k = static_cast<test::SoakKind>(i);
+    if (test::pipeline_refuses(k) || test::submit_refuses(k)) {
+      std::printf(" %s %" PRIu64, test::to_string(k), c.sent[i]);
+    }
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+/// Runs the soak, printing the table as checkpoints arrive, into `cps`; false when the runner
+/// did not start or did not drain (or the pipeline did not initialise).
+bool run(const Options& opt, std::vector<test::SoakCheckpoint>& cps) {
   auto pipeline = std::make_unique<Pipeline>();
   PipelineConfig config;  // defaults: the 640x480 camera
   // The bound as the whole-frame budget: the pipeline counts the frames over it (the adaptive
   // stride stays off, so the budget changes nothing else).
-  config.budgets.frame_ns = static_cast<std::uint64_t>(bound_ms * 1e6);
-  if (!ok(pipeline->init(config))) return 1;
-  pipeline->set_clock(wall ? &wall_clock : &cpu_clock);
+  config.budgets.frame_ns = static_cast<std::uint64_t>(opt.bound_ms * 1e6);
+  if (!ok(pipeline->init(config))) return false;
+  pipeline->set_clock(opt.wall ? &wall_clock : &cpu_clock);
 
   std::printf("soak: %" PRIu64 " frames, seed %" PRIu64 ", default configuration, %s time\n",
-              frames, seed, wall ? "wall" : "worker CPU");
+              opt.frames, opt.seed, opt.wall ? "wall" : "worker CPU");
   std::printf(
       "| frames | RSS MiB | worst ms | p99.9 ms | median ms | over bound | submitted | processed | "
       "failed | "
       "full (retried) | bad | stopped | dropped | rays dropped | blocks evicted | "
       "detections dropped | tracks refused | snapshots |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  std::vector<test::SoakCheckpoint> cps;
   const std::uint64_t t0 = platform::monotonic_ns();
-  const bool ran =
-      test::run_soak(*pipeline, frames, checkpoint, seed, [&](const test::SoakCheckpoint& c) {
-        const RunnerCounters& r = c.runner;
-        std::printf("| %" PRIu64 " | %.2f | %.2f | %.2f | %.2f | %" PRIu64 " | %" PRIu64
-                    " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64
-                    " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64 " | %" PRIu64
-                    " | %" PRIu64 " |\n",
-                    c.frames, mib(c.rss_bytes), ms(c.worst_frame_ns), ms(c.p999_frame_ns),
-                    ms(c.median_frame_ns), c.over_budget, r.submitted, r.processed, r.failed,
-                    r.rejected_full, r.rejected_bad, r.rejected_stopped, r.dropped_at_stop,
-                    c.pipeline.rays_dropped, c.pipeline.blocks_evicted,
-                    c.pipeline.detections_dropped, c.pipeline.tracks_refused, c.snapshots_seen);
-        std::printf("  refused by kind:");
-        for (std::size_t i = 0; i < test::kSoakKinds; ++i) {
-          const auto k = static_cast<test::SoakKind>(i);
-          if (test::pipeline_refuses(k) || test::submit_refuses(k)) {
-            std::printf(" %s %" PRIu64, test::to_string(k), c.sent[i]);
-          }
-        }
-        std::printf("\n");
-        std::fflush(stdout);
-        cps.push_back(c);
-      });
+  const bool ran = test::run_soak(*pipeline, opt.frames, opt.checkpoint, opt.seed,
+                                  [&](const test::SoakCheckpoint& c) {
+                                    print_checkpoint(c);
+                                    cps.push_back(c);
+                                  });
   const double seconds = static_cast<double>(platform::monotonic_ns() - t0) * 1e-9;
   if (!ran) {
     std::printf("FAIL: the runner did not start or did not drain\n");
-    return 1;
+    return false;
   }
   const test::SoakCheckpoint& last = cps.back();
   std::printf("\nframes by kind:");
@@ -130,7 +142,12 @@ int main(int argc, char** argv) {
     std::printf(" %s %" PRIu64, test::to_string(static_cast<test::SoakKind>(i)), last.sent[i]);
   }
   std::printf("\nwall time %.0f s\n", seconds);
+  return true;
+}
 
+/// Checks the checkpoints (counters add up, RSS flat after the warm-up, worst frame within the
+/// bound), prints the verdict and returns the number of failed checks.
+int report(const Options& opt, const std::vector<test::SoakCheckpoint>& cps) {
   int failures = 0;
   for (const auto& c : cps) {
     const char* problem = test::soak_counter_problem(c);
@@ -157,11 +174,21 @@ int main(int argc, char** argv) {
   }
   std::printf("worst frame %.2f ms, largest p99.9 %.2f ms, %" PRIu64 " of %" PRIu64
               " processed frames over the bound of %.1f ms\n",
-              ms(worst), ms(p999), over, last.runner.processed, bound_ms);
-  if (ms(worst) > bound_ms) {
+              ms(worst), ms(p999), over, cps.back().runner.processed, opt.bound_ms);
+  if (ms(worst) > opt.bound_ms) {
     std::printf("FAIL: worst frame over the bound\n");
     ++failures;
   }
   std::printf("%s\n", failures == 0 ? "PASS" : "FAIL");
-  return failures == 0 ? 0 : 1;
+  return failures;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (!parse_args(argc, argv, opt)) return 2;
+  std::vector<test::SoakCheckpoint> cps;
+  if (!run(opt, cps)) return 1;
+  return report(opt, cps) == 0 ? 0 : 1;
 }
