@@ -2,8 +2,9 @@
 # Runs the whole test suite: dev tests, ASan+UBSan tests, TSan tests of the threaded code, the
 # -fno-exceptions -fno-rtti build with its tests, the aarch64 cross build with its tests under
 # qemu-aarch64, and a short fixed-seed run of each libFuzzer target (ASan+UBSan, about 15 s
-# each), and clang-tidy over the library's and the tools' sources (.clang-tidy: functions of at
-# most 80 lines, bug-prone checks, warnings as errors; on the dev build's compile commands).
+# each), and clang-tidy over the library's, the tools' and the benchmarks' sources (.clang-tidy:
+# functions of at most 80 lines, bug-prone checks, warnings as errors; on the dev build's compile
+# commands). The dev preset compiles the benchmarks so they cannot rot unseen; none is a test.
 # Prints ctest's summary for each and exits non-zero if any step failed.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -39,14 +40,16 @@ for p in "${PRESETS[@]}"; do
   echo "=== preset ${p}: ${result[$p]} in $(( $(date +%s) - start )) s ==="
 done
 
-# clang-tidy on every library and tool source the dev build compiles (src/, platform/, tools/;
-# the dev preset builds the tools). fuzz/ and bench/ are not in the dev build's compile commands.
+# clang-tidy on every library, tool and benchmark source the dev build compiles (src/,
+# platform/, tools/, bench/; the dev preset builds the tools and the benchmarks). fuzz/ is not in
+# the dev build's compile commands.
 tidy="skipped (needs the dev preset)"
 if [ -f build/dev/compile_commands.json ]; then
-  echo "=== clang-tidy: src/, platform/ and tools/ ==="
+  echo "=== clang-tidy: src/, platform/, tools/ and bench/ ==="
   start=$(date +%s)
-  files=$(git ls-files 'src/*.cpp' 'platform/*.cpp' 'tools/*.cpp' | while read -r f; do
-    grep -q "\"file\": \"$(pwd)/$f\"" build/dev/compile_commands.json && echo "$f"; done)
+  files=$(git ls-files 'src/*.cpp' 'platform/*.cpp' 'tools/*.cpp' 'bench/*.cpp' |
+    while read -r f; do
+      grep -q "\"file\": \"$(pwd)/$f\"" build/dev/compile_commands.json && echo "$f"; done)
   if echo "$files" | xargs -P 2 -n 1 clang-tidy -p build/dev --quiet >build/tidy.log 2>&1; then
     tidy="passed ($(echo "$files" | wc -l) files)"
   else
