@@ -26,6 +26,8 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
     const bool early = config.early_votes > 0 && dynamic_streak_ >= config.early_votes &&
                        (every_vote_dynamic_ || dynamic_frames_ > 0);
     votes_say = voter_.dynamic() || early;
+  } else {
+    dynamic_streak_ = 0;  // an abstention (no history yet, or not rigid) ends the early run
   }
   if (votes_say || ever_free_run(e, config)) {
     mode_ = LabelMode::kDynamic;

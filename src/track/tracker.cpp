@@ -257,8 +257,10 @@ LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
   const ContinuityFilter filter(config_.continuity);
   // A detection on long-occupied voxels lies on static structure: it votes static.
   const bool on_static = det.static_share > config_.max_static_share;
-  e.voted = true;
-  e.dynamic_vote = filter.vote(speed, c_con, t.size) && moves_rigidly(t) && !on_static;
+  const bool moving = filter.vote(speed, c_con, t.size) && !on_static;
+  const bool rigid = moves_rigidly(t);
+  e.voted = rigid || !moving || !config_.abstain_when_not_rigid;
+  e.dynamic_vote = moving && rigid;
   return e;
 }
 

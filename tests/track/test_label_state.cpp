@@ -122,6 +122,21 @@ TEST_F(LabelStateTest, EarlyRunNeedsEveryVoteDynamic) {
   EXPECT_EQ(s.mode(), LabelMode::kStatic);
 }
 
+TEST_F(LabelStateTest, EarlyRunSurvivesAbstentionsBeforeItButNotInsideIt) {
+  // Frames without a vote (a walker still stepping out from behind a pillar) leave "every vote
+  // dynamic" alone, but a run of E dynamic votes must not straddle one.
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(no_vote(false), 10);
+  measure(vote(true), 2);
+  measure(no_vote(false));
+  EXPECT_EQ(s.dynamic_streak(), 0u);
+  measure(vote(true), 3);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+}
+
 TEST_F(LabelStateTest, EarlyLabelWithdrawnByAStaticVote) {
   lc.early_votes = 4;
   s.start(no_vote(false), lc);

@@ -8,6 +8,7 @@
 //                              either already holding or slower than v_min; up to hold frames
 //               -> kHoldSpent  no evidence, the hold ran out: static until new evidence
 //               -> kStatic     no evidence and no hold
+//               (a measured frame without a vote ends the early run)
 //   missed()    -> kCoasting   only the vote window's label; runs of evidence are broken, a hold
 //                              in progress resumes at the next measured frame
 #pragma once
@@ -58,7 +59,7 @@ struct LabelConfig {
 
 /// What one frame tells about a track; the tracker computes it, LabelState weighs it.
 struct LabelEvidence {
-  bool voted = false;          ///< the continuity filter could score this frame (history long)
+  bool voted = false;          ///< a vote: history long enough, not a rigid-test abstention
   bool dynamic_vote = false;   ///< and the frame voted dynamic (ContinuityFilter and the tracker)
   bool in_ever_free = false;   ///< the detection lay in ever-free space
   bool plausible_size = true;  ///< the track's size passes the size check (or the check is off)
