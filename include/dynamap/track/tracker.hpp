@@ -60,10 +60,11 @@ struct TrackerConfig {
   /// edges together. Judged on the detection boxes themselves (before the bias correction).
   /// Negative disables the test.
   float max_extent_change_ratio = 1.0f;
-  /// A frame that fails only the rigid-motion test (fast, continuous, plausible size, not on
-  /// static structure) casts no vote instead of a static one, and breaks the early label's run.
-  /// A walker stepping out from behind a pillar grows as it emerges: with static votes its
-  /// label waits for T_c of c votes (a second); without, the early label can follow.
+  /// Before a track's first vote, a frame that fails only the rigid-motion test (fast,
+  /// continuous, plausible size, not on static structure) casts no vote instead of a static
+  /// one. A walker stepping out from behind a pillar grows as it emerges: with static votes its
+  /// label waits for T_c of c votes (a second); without, the early label can follow. Once a
+  /// track has voted, such frames vote static as before (a wall piece that passed a vote).
   bool abstain_when_not_rigid = true;
   /// The round-footprint bias correction is applied only when the box's longer horizontal side
   /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
