@@ -258,11 +258,11 @@ LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
   // A detection on long-occupied voxels lies on static structure: it votes static.
   const bool on_static = det.static_share > config_.max_static_share;
   const bool moving = filter.vote(speed, c_con, t.size) && !on_static;
-  const bool rigid = moves_rigidly(t);
+  const bool rigid = moving && moves_rigidly(t);
   // Only before the track's first vote: a wall piece that passed a vote keeps its static ones.
   const bool first_vote = t.label.voter().votes() == 0;
   e.voted = rigid || !moving || !config_.abstain_when_not_rigid || !first_vote;
-  e.dynamic_vote = moving && rigid;
+  e.dynamic_vote = rigid;
   return e;
 }
 

@@ -64,7 +64,7 @@ struct TrackerConfig {
   /// continuous, plausible size, not on static structure) casts no vote instead of a static
   /// one. A walker stepping out from behind a pillar grows as it emerges: with static votes its
   /// label waits for T_c of c votes (a second); without, the early label can follow. Once a
-  /// track has voted, such frames vote static as before (a wall piece that passed a vote).
+  /// track has voted, such frames vote static (a wall piece that passed a vote).
   bool abstain_when_not_rigid = true;
   /// The round-footprint bias correction is applied only when the box's longer horizontal side
   /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
