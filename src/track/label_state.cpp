@@ -10,13 +10,17 @@ Status LabelConfig::validate() const noexcept {
 
 void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexcept {
   *this = LabelState{};
-  ever_free_streak_ = e.in_ever_free ? 1 : 0;
+  ever_free_streak_ = e.in_ever_free && !e.ever_free_overruled ? 1 : 0;
   mode_ = ever_free_run(e, config) ? LabelMode::kDynamic : LabelMode::kStatic;
 }
 
 void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& continuity,
                           const LabelConfig& config) noexcept {
-  ever_free_streak_ = e.in_ever_free ? ever_free_streak_ + 1 : 0;
+  if (!e.in_ever_free) {
+    ever_free_streak_ = 0;
+  } else if (!e.ever_free_overruled) {
+    ++ever_free_streak_;
+  }
   bool votes_say = false;
   if (e.voted) {
     voter_.push(e.dynamic_vote, continuity);

@@ -238,9 +238,15 @@ void Tracker::update_size(Track& t, const Measurement& m) noexcept {
   }
 }
 
+void Tracker::ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept {
+  e->in_ever_free = det.ever_free >= config_.ever_free_share;
+  e->ever_free_overruled = e->in_ever_free && config_.static_overrules_ever_free &&
+                           det.static_share > config_.max_static_share;
+}
+
 LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
   LabelEvidence e;
-  e.in_ever_free = det.ever_free >= config_.ever_free_share;
+  ever_free_evidence(det, &e);
   e.plausible_size = plausible_size(t.size);
   e.slow = t.kf.velocity().norm() < config_.continuity.min_speed;
   // Continuity filter over the measured history (oldest first), then the vote.
@@ -382,7 +388,7 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp
     t.out.detection = static_cast<std::int32_t>(i);
     t.out.cut = !frame_.meas[i].in_view;
     LabelEvidence e;
-    e.in_ever_free = dets[i].ever_free >= config_.ever_free_share;
+    ever_free_evidence(dets[i], &e);
     e.plausible_size = plausible_size(t.size);
     t.label.start(e, config_.label);
     ++free_slot;

@@ -230,6 +230,21 @@ TEST_F(LabelStateTest, MissedFrameEndsTheEverFreeRun) {
   EXPECT_EQ(s.mode(), LabelMode::kDynamic);
 }
 
+TEST_F(LabelStateTest, EverFreeFramesOnStaticStructureNeitherStartNorEndARun) {
+  lc.ever_free_frames = 2;
+  LabelEvidence overruled = no_vote(true);
+  overruled.ever_free_overruled = true;
+  s.start(overruled, lc);
+  measure(overruled, 30);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);  // a crate long in the map: no run ever starts
+  measure(no_vote(true), 2);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  measure(overruled);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);  // a walker one frame beside a wall keeps its run
+  measure(no_vote(false));
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
 TEST_F(LabelStateTest, CoastingKeepsOnlyTheVoteWindowLabel) {
   s.start(no_vote(false), lc);
   make_dynamic_by_votes(cc.dynamic_votes);

@@ -80,15 +80,16 @@ void write_detection_fields(std::ostream& os, const TrackedObstacle& ob,
      << d.image_box.v1 << "," << d.near_depth << "," << touch_nearer << "," << touch;
 }
 
-// The detection's box before refinement, and whether it was refined.
+// The detection's box before refinement, whether it was refined, and its map evidence.
 void write_raw_fields(std::ostream& os, const TrackedObstacle& ob, const DetectionList& dets) {
   if (ob.detection < 0 || static_cast<std::size_t>(ob.detection) >= dets.size()) {
-    os << ",0,0,0,0,0";
+    os << ",0,0,0,0,0,0,0";
     return;
   }
   const Detection& d = dets[static_cast<std::size_t>(ob.detection)];
   const Eigen::Vector3f rc = d.raw_box.center(), rs = d.raw_box.size();
-  os << "," << rc.x() << "," << rc.y() << "," << rs.x() << "," << rs.y() << "," << d.refined;
+  os << "," << rc.x() << "," << rc.y() << "," << rs.x() << "," << rs.y() << "," << d.refined << ","
+     << d.ever_free << "," << d.static_share;
 }
 
 // One CSV row: the track's internals, the nearest true obstacle, its detection.
@@ -137,7 +138,7 @@ int run(int argc, char** argv) {
                "size_fixed,sx,sy,gt_id,gt_dist,gt_vx,gt_vy,gt_visible,gt_depth,gt_turn_rate,det,"
                "det_x,det_y,"
                "det_sx,det_sy,det_u0,det_u1,det_v0,det_v1,det_near,det_touch_nearer,det_touch,"
-               "cam_x,cam_y,raw_x,raw_y,raw_sx,raw_sy,refined,streak,sz\n";
+               "cam_x,cam_y,raw_x,raw_y,raw_sx,raw_sy,refined,ever_free,static_share,streak,sz\n";
   auto out = std::make_unique<FrameOutput>();
   for (std::size_t f = 0; f < seq.frames.size(); ++f) {
     const SequenceFrame& sf = seq.frames[f];

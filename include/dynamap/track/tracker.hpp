@@ -112,6 +112,12 @@ struct TrackerConfig {
   /// (Detection::static_share above this) lies on static structure: its apparent motion is the
   /// camera's view sliding along it, and it votes static (1: off; docs/tracker.md).
   float max_static_share = 0.5f;
+  /// A detection on static structure (static share above max_static_share) neither extends nor
+  /// ends an ever-free run, whatever its ever-free share: rays grazing a wall or a crate's top
+  /// from a moving camera mark cells beside the surface free, and a crate that had been in the
+  /// map for seconds was labelled dynamic by its ever-free run. A walker's body arrives on
+  /// voxels that were free a moment ago; one frame of it beside a wall does not end its run.
+  bool static_overrules_ever_free = true;
 
   /// kInvalidArgument for out-of-range values or broken relations (nested configs included;
   /// params::kTrackerRelations, track_params.hpp).
@@ -215,6 +221,7 @@ class Tracker {
   // the evidence for the label (the continuity filter's vote among it).
   void update_size(Track& t, const Measurement& m) noexcept;
   LabelEvidence evidence(Track& t, const Detection& det) const noexcept;
+  void ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept;
   bool plausible_size(const Eigen::Vector3f& size) const noexcept;
   void publish() noexcept;
 
