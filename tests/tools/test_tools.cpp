@@ -1126,6 +1126,36 @@ TEST(Evaluation, MinCostAssignmentBeatsGreedy) {
   EXPECT_EQ(b, (std::vector<int>{-1, -1, 0}));
 }
 
+// The worst false dynamic track: the most dynamic rows of one track with no listed obstacle
+// near (a static object labelled dynamic), not the sum over tracks.
+TEST(Evaluation, FalseDynamicFramesCountTheWorstTrack) {
+  TempDir seq, res;
+  write_file(seq / "camera.txt", "world_z_up 1\ndepth_factor 1000\n");
+  const std::string q = " -0.5 0.5 -0.5 0.5\n";
+  write_file(seq / "groundtruth.txt", "1.0 0 0 1" + q + "2.0 0 0 1" + q + "3.0 0 0 1" + q);
+  write_file(seq / "depth.txt",
+             "1.000000 depth/1.png\n2.000000 depth/2.png\n3.000000 depth/3.png\n");
+  write_file(seq / "obstacles.txt",
+             "# timestamp id x y z vx vy vz sx sy sz visible\n"
+             "1.000000 1 3.0 0.0 0.85 1 0 0 0.5 0.5 1.7 1.0\n"
+             "2.000000 1 3.1 0.0 0.85 1 0 0 0.5 0.5 1.7 1.0\n"
+             "3.000000 1 3.2 0.0 0.85 1 0 0 0.5 0.5 1.7 1.0\n");
+  std::string rows = "stamp,id,x,y,z,vx,vy,vz,sx,sy,sz,dynamic,path\n";
+  for (const char* stamp : {"1.000000", "2.000000", "3.000000"}) {
+    rows += std::string(stamp) + ",10,3.1,0,0.85,1,0,0,0.5,0.5,1.7,1,-1\n";  // the walker
+    rows += std::string(stamp) + ",20,4.0,3.0,0.85,0,1,0,1,0.3,2,1,-1\n";    // a wall piece
+    rows += std::string(stamp) + ",22,4.0,-3.0,0.85,0,0,0,1,1,1,0,-1\n";     // static: no count
+  }
+  rows +=
+      "1.000000,21,5.0,-2.0,0.85,0,1,0,1,0.3,1,1,-1\n"
+      "2.000000,21,5.0,-2.0,0.85,0,1,0,1,0.3,1,1,-1\n";
+  write_file(res / "tracks.csv", rows);
+  const eval::EvalResult r = eval::evaluate(seq.str(), res.str());
+  EXPECT_EQ(r.dynamic_track_rows, 8u);
+  EXPECT_EQ(r.dynamic_rows_near_obstacle, 3u);
+  EXPECT_EQ(r.false_dynamic_frames_max, 3u);
+}
+
 TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
   TempDir seq, res;
   // Camera at the origin looking along +x (optical z = world x, x = -y, y = -z).
@@ -1189,6 +1219,7 @@ TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
   EXPECT_NEAR(r.recall, 2.0 / 3.0, 1e-12);
   EXPECT_EQ(r.dynamic_track_rows, 4u);
   EXPECT_NEAR(r.precision, 3.0 / 4.0, 1e-12);
+  EXPECT_EQ(r.false_dynamic_frames_max, 1u);  // track 12's one row far from every obstacle
   EXPECT_EQ(r.false_negatives, 1u);
   EXPECT_EQ(r.false_positives, 1u);
   EXPECT_EQ(r.id_switches, 1u);

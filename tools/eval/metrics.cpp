@@ -167,6 +167,7 @@ struct MatchState {
   std::map<int, int> last_track_of_gt;  // gt id -> track id of its last match
   double pos_sum = 0.0, vel_sum = 0.0, settled_vel_sum = 0.0;
   std::size_t within_1sigma = 0, within_2sigma = 0;  // per-axis velocity errors (calibration)
+  std::map<int, std::size_t> false_dynamic_rows;     // track id -> dynamic rows far from all
 };
 
 // Per-axis velocity errors against the track's reported sigma (rows with svx,svy only).
@@ -189,7 +190,8 @@ struct FrameSets {
 // Splits the frame's obstacles into counted ones (moving, visible enough, in the depth range)
 // and don't-care ones; collects the dynamic rows and counts those near any obstacle.
 FrameSets frame_sets(const SequenceFrame& frame, const std::vector<ObstacleRecord>& listed,
-                     const std::vector<TrackRow>& rows, const EvalOptions& opt, EvalResult& r) {
+                     const std::vector<TrackRow>& rows, const EvalOptions& opt, MatchState& m,
+                     EvalResult& r) {
   FrameSets s;
   const Eigen::Matrix3d Rt = frame.pose.rotation.toRotationMatrix().transpose();
   for (const auto& o : listed) {
@@ -205,6 +207,10 @@ FrameSets frame_sets(const SequenceFrame& frame, const std::vector<ObstacleRecor
       return top_dist(o.center, t.center) <= opt.precision_radius;
     });
     r.dynamic_rows_near_obstacle += near ? 1 : 0;
+    if (!near) {
+      const std::size_t n = ++m.false_dynamic_rows[t.id];
+      r.false_dynamic_frames_max = std::max(r.false_dynamic_frames_max, n);
+    }
   }
   return s;
 }
@@ -371,7 +377,7 @@ EvalResult evaluate(const std::string& seq_dir, const std::string& result_dir,
     const auto& listed = oit != obstacles.end() ? oit->second : kNoObstacles;
     const auto tit = tracks.find(key);
     const auto& rows = tit != tracks.end() ? tit->second : kNoTracks;
-    const FrameSets s = frame_sets(frame, listed, rows, opt, r);
+    const FrameSets s = frame_sets(frame, listed, rows, opt, m, r);
     std::vector<bool> track_used;
     const std::vector<int> match = match_frame(s, m.last_track_of_gt, opt, track_used);
     score_frame(s, match, track_used, frame_index, first_frame, opt, m, r);
@@ -446,6 +452,8 @@ std::string format_table(const EvalResult& r) {
   row("precision", num(r.precision, 3),
       std::to_string(r.dynamic_rows_near_obstacle) + " near an obstacle / " +
           std::to_string(r.dynamic_track_rows) + " dynamic rows");
+  row("false dynamic, worst track", std::to_string(r.false_dynamic_frames_max),
+      "frames one track was dynamic with no obstacle within the precision radius");
   row("MOTA", num(r.mota, 3),
       "FN " + std::to_string(r.false_negatives) + ", FP " + std::to_string(r.false_positives) +
           ", ID switches " + std::to_string(r.id_switches));
@@ -536,6 +544,7 @@ void write_metrics_json(const std::string& path, const EvalResult& r, const std:
     << "  \"track_ids\": " << r.track_ids << ",\n"
     << "  \"dynamic_track_ids\": " << r.dynamic_track_ids << ",\n"
     << "  \"dynamic_rows_near_obstacle\": " << r.dynamic_rows_near_obstacle << ",\n"
+    << "  \"false_dynamic_frames_max\": " << r.false_dynamic_frames_max << ",\n"
     << "  \"false_negatives\": " << r.false_negatives << ",\n"
     << "  \"false_positives\": " << r.false_positives << ",\n"
     << "  \"id_switches\": " << r.id_switches << ",\n"

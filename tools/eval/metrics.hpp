@@ -49,6 +49,9 @@ struct EvalResult {
   std::size_t track_ids = 0;           ///< distinct track ids in tracks.csv
   std::size_t dynamic_track_ids = 0;   ///< of those, ids labelled dynamic in some row
   std::size_t dynamic_rows_near_obstacle = 0;
+  /// The most dynamic rows any one track has with no listed obstacle within precision_radius:
+  /// how long the worst static object (or ghost) was labelled dynamic, in frames.
+  std::size_t false_dynamic_frames_max = 0;
   std::size_t track_rows_unknown_stamp = 0;  ///< rows whose stamp is no frame of the sequence
   double position_error = 0.0;               ///< m, NaN when nothing matched
   double velocity_error = 0.0;               ///< m/s
