@@ -231,7 +231,10 @@ void Tracker::update_size(Track& t, const Measurement& m) noexcept {
       t.size_sum.setZero();
     }
     if (t.in_view_frames >= config_.size_fix_frames) {
-      t.size = t.size.cwiseMax(t.size_sum / static_cast<float>(t.in_view_frames));
+      const Eigen::Vector3f mean = t.size_sum / static_cast<float>(t.in_view_frames);
+      const bool refreeze =
+          config_.refreeze_implausible_size && !plausible_size(t.size) && plausible_size(mean);
+      t.size = refreeze ? mean : Eigen::Vector3f(t.size.cwiseMax(mean));
       t.in_view_frames = 0;
       t.size_sum.setZero();
     }

@@ -413,6 +413,33 @@ TEST(TrackerLabels, SizeCheckKeepsImplausibleSizesStatic) {
   }
 }
 
+// Suite seed 24: two people side by side (0.9 m) merged with a third in the track's first
+// frames (1.5 m) froze a size wider than 1 m, and every vote was static for good. A later
+// window that passes the size check replaces it, and the pair is labelled; without the rule
+// it never is.
+TEST(TrackerSize, ImplausibleFrozenSizeIsReplacedByAPlausibleWindow) {
+  const Eigen::Vector3f pair(0.4f, 0.9f, 1.66f);
+  for (const bool refreeze : {true, false}) {
+    TrackerConfig config;
+    config.refreeze_implausible_size = refreeze;
+    auto tracker = make_tracker(config);
+    const LabelRun run = run_target(
+        *tracker, 90,
+        [](int f, Box3* box) {
+          if (box == nullptr) return Eigen::Vector3f(4.f + f / 30.f, 0.f, 0.83f);
+          if (f < 10) box->max.y() += 0.6f;  // the third person beside them
+          return Eigen::Vector3f();
+        },
+        pair);
+    if (refreeze) {
+      EXPECT_GE(run.first_dynamic, 20);
+      EXPECT_LE(run.first_dynamic, 60);
+    } else {
+      EXPECT_EQ(run.first_dynamic, -1);
+    }
+  }
+}
+
 // On real depth a box spanning two people and the background between them is over 1 m wide:
 // it never votes dynamic, however steadily it moves, and no ever-free evidence labels it.
 TEST(TrackerLabels, ABoxWiderThanOnePersonPairIsNeverDynamic) {

@@ -106,6 +106,7 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, max_round_footprint), X, "m", 0, kInf, kClosed, kOpen, "bias correction only for footprints up to this long (0: no limit)"},
     {DYNAMAP_PARAM(TrackerConfig, early_displacement_frames), X, "frames", 0, kMaxTrackHistory, kClosed, kClosed, "displacement span of the early votes (0: no early votes)"},
     {DYNAMAP_PARAM(TrackerConfig, size_fix_growth), X, "", 0, 1, kClosed, kClosed, "raise a frozen size to a larger window mean"},
+    {DYNAMAP_PARAM(TrackerConfig, refreeze_implausible_size), X, "", 0, 1, kClosed, kClosed, "replace a frozen size failing the size check by a later window mean passing it"},
     {DYNAMAP_PARAM(TrackerConfig, measure_raw_box), X, "", 0, 1, kClosed, kClosed, "measure from the detector's box, not the map-refined one"},
     {DYNAMAP_PARAM(TrackerConfig, compensate_size_steps), X, "", 0, 1, kClosed, kClosed, "keep a step of the frozen size from reading as motion"},
     {DYNAMAP_PARAM(TrackerConfig, compensate_cut_footprint), X, "", 0, 1, kClosed, kClosed, "keep the growing footprint of a border-cut detection from reading as motion"},

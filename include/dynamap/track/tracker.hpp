@@ -81,6 +81,10 @@ struct TrackerConfig {
   /// only, so a size frozen during a partial occlusion was too small for good, and so was the
   /// bias correction of the centre. The size never shrinks once frozen.
   bool size_fix_growth = true;
+  /// A frozen size that fails the size check is replaced by a later window mean that passes
+  /// it: two people merged with a third in a track's first frames froze a size wider than 1 m,
+  /// and every vote of that track was static for good.
+  bool refreeze_implausible_size = true;
   /// Measure each detection from the detector's own box (`Detection::raw_box`, the mean surface
   /// points of this depth image) instead of the box refined against the occupancy map. The map
   /// confirms a voxel only after repeated hits (two at prob_hit 0.7, prob_occupied 0.8) and
