@@ -1126,15 +1126,21 @@ TEST(Evaluation, MinCostAssignmentBeatsGreedy) {
   EXPECT_EQ(b, (std::vector<int>{-1, -1, 0}));
 }
 
-// The worst false dynamic track: the most dynamic rows of one track with no listed obstacle
-// near (a static object labelled dynamic), not the sum over tracks.
-TEST(Evaluation, FalseDynamicFramesCountTheWorstTrack) {
-  TempDir seq, res;
+// Three frames (stamps 1, 2, 3) of a camera at the origin looking along +x (optical z = world
+// x, x = -y, y = -z); the depth images are listed, not needed.
+void write_three_frame_camera(const TempDir& seq) {
   write_file(seq / "camera.txt", "world_z_up 1\ndepth_factor 1000\n");
   const std::string q = " -0.5 0.5 -0.5 0.5\n";
   write_file(seq / "groundtruth.txt", "1.0 0 0 1" + q + "2.0 0 0 1" + q + "3.0 0 0 1" + q);
   write_file(seq / "depth.txt",
              "1.000000 depth/1.png\n2.000000 depth/2.png\n3.000000 depth/3.png\n");
+}
+
+// The worst false dynamic track: the most dynamic rows of one track with no listed obstacle
+// near (a static object labelled dynamic), not the sum over tracks.
+TEST(Evaluation, FalseDynamicFramesCountTheWorstTrack) {
+  TempDir seq, res;
+  write_three_frame_camera(seq);
   write_file(seq / "obstacles.txt",
              "# timestamp id x y z vx vy vz sx sy sz visible\n"
              "1.000000 1 3.0 0.0 0.85 1 0 0 0.5 0.5 1.7 1.0\n"
@@ -1158,12 +1164,7 @@ TEST(Evaluation, FalseDynamicFramesCountTheWorstTrack) {
 
 TEST(Evaluation, HandMadeResultGivesHandComputedMetrics) {
   TempDir seq, res;
-  // Camera at the origin looking along +x (optical z = world x, x = -y, y = -z).
-  write_file(seq / "camera.txt", "world_z_up 1\ndepth_factor 1000\n");
-  const std::string q = " -0.5 0.5 -0.5 0.5\n";
-  write_file(seq / "groundtruth.txt", "1.0 0 0 1" + q + "2.0 0 0 1" + q + "3.0 0 0 1" + q);
-  write_file(seq / "depth.txt",
-             "1.000000 depth/1.png\n2.000000 depth/2.png\n3.000000 depth/3.png\n");
+  write_three_frame_camera(seq);
   // id 1 counted; id 2 moving but hardly visible; id 3 standing still; id 4 too far (6 m).
   write_file(seq / "obstacles.txt",
              "# timestamp id x y z vx vy vz sx sy sz visible\n"
