@@ -10,6 +10,7 @@ Status LabelConfig::validate() const noexcept {
 
 void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexcept {
   *this = LabelState{};
+  young_run_allowed_ = config.early_while_young && e.run_frame >= config.young_run_from_frame;
   ever_free_streak_ = e.in_ever_free && !e.ever_free_overruled ? 1 : 0;
   mode_ = ever_free_run(e, config) ? LabelMode::kDynamic : LabelMode::kStatic;
 }
@@ -26,9 +27,12 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
     voter_.push(e.dynamic_vote, continuity);
     dynamic_streak_ = e.dynamic_vote ? dynamic_streak_ + 1 : 0;
     if (!e.dynamic_vote) every_vote_dynamic_ = false;
-    // The early run counts for a track whose votes were all dynamic, or one dynamic before.
-    const bool early = config.early_votes > 0 && dynamic_streak_ >= config.early_votes &&
-                       (every_vote_dynamic_ || dynamic_frames_ > 0);
+    // The early run counts for a track whose votes were all dynamic, one dynamic before, or a
+    // young one (window not full, no gap) that started after the run's first second.
+    const bool early =
+        config.early_votes > 0 && dynamic_streak_ >= config.early_votes &&
+        (every_vote_dynamic_ || dynamic_frames_ > 0 ||
+         (young_run_allowed_ && !missed_after_vote_ && voter_.votes() < continuity.vote_window));
     votes_say = voter_.dynamic() || early;
   } else {
     dynamic_streak_ = 0;  // an abstention (no history yet, or not rigid) ends the early run
@@ -62,7 +66,10 @@ void LabelState::missed() noexcept {
   // The early and ever-free labels need an unbroken run: a gap ends both runs.
   dynamic_streak_ = 0;
   ever_free_streak_ = 0;
-  if (voter_.votes() > 0) every_vote_dynamic_ = false;
+  if (voter_.votes() > 0) {
+    every_vote_dynamic_ = false;
+    missed_after_vote_ = true;
+  }
   mode_ = LabelMode::kCoasting;
 }
 

@@ -66,6 +66,7 @@ void Tracker::clear() noexcept {
   output_count_ = 0;
   has_stamp_ = false;
   last_stamp_ = 0;
+  frames_processed_ = 0;
 }
 
 bool Tracker::fully_in_view(const ImageBox& b) const noexcept {
@@ -312,6 +313,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
   start_tracks(dets, count, stamp);
   last_stamp_ = stamp;
   has_stamp_ = true;
+  if (frames_processed_ < std::numeric_limits<std::size_t>::max()) ++frames_processed_;
   publish();
   return Status::kOk;
 }
@@ -393,6 +395,7 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp
     LabelEvidence e;
     ever_free_evidence(dets[i], &e);
     e.plausible_size = plausible_size(t.size);
+    e.run_frame = frames_processed_;
     t.label.start(e, config_.label);
     ++free_slot;
   }

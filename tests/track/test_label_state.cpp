@@ -114,12 +114,46 @@ TEST_F(LabelStateTest, EarlyRunLabelsDynamic) {
   EXPECT_EQ(s.dynamic_streak(), 4u);
 }
 
-TEST_F(LabelStateTest, EarlyRunNeedsEveryVoteDynamic) {
+TEST_F(LabelStateTest, EarlyRunNeedsEveryVoteDynamicOnceTheWindowIsFull) {
   lc.early_votes = 4;
   s.start(no_vote(false), lc);
-  measure(vote(false));
+  measure(vote(false), cc.vote_window);
   measure(vote(true), 6);  // never dynamic before: a later run does not count
   EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, EarlyRunMayFollowStaticVotesWhileTheWindowIsYoung) {
+  // A walker entering at the image border: its first votes are static (continuity not there
+  // yet), then it votes dynamic on every frame.
+  lc.early_votes = 4;
+  LabelEvidence first = no_vote(false);
+  first.run_frame = lc.young_run_from_frame;
+  s.start(first, lc);
+  measure(vote(false), 3);
+  measure(vote(true), 3);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  lc.early_while_young = false;  // the rule off: every vote so far must have been dynamic
+  s.start(first, lc);
+  measure(vote(false), 3);
+  measure(vote(true), 4);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, EarlyRunAfterStaticVotesNeedsATrackStartedAfterTheMapHadHistory) {
+  // A track from the run's first second: the cleaner cannot yet tell structure beside it from
+  // its trail, so only a run with every vote dynamic labels it early.
+  lc.early_votes = 4;
+  LabelEvidence first = no_vote(false);
+  first.run_frame = lc.young_run_from_frame - 1;
+  s.start(first, lc);
+  measure(vote(false), 3);
+  measure(vote(true), 6);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  s.start(first, lc);
+  measure(vote(true), 4);  // every vote dynamic: the early label as before
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
 }
 
 TEST_F(LabelStateTest, EarlyRunSurvivesAbstentionsBeforeItButNotInsideIt) {

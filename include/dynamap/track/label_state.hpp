@@ -36,6 +36,17 @@ struct LabelConfig {
   /// walker after a pause) may be re-labelled the same way by `early_votes` consecutive dynamic
   /// votes.
   std::size_t early_votes = 4;
+  /// The early run may follow static votes while the vote window is not full yet (fewer than c
+  /// votes cast) and the track was detected on every frame since its first vote: a walker
+  /// entering the view at the border or speeding up votes static first (continuity or speed
+  /// not there yet) and otherwise waited for T_c of c votes. Tracks that flicker in and out
+  /// (wall pieces, fragments) still need every vote dynamic.
+  bool early_while_young = true;
+  /// `early_while_young` applies only to a track that started at least this many frames into the
+  /// run. The cleaner keeps voxels occupied since long before a track started
+  /// (cleaner.static_margin_frames); beside a track from the run's first second nothing is old
+  /// enough to keep, so such a track needs every vote dynamic.
+  std::size_t young_run_from_frame = 30;
   /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
   /// observed free (TrackerConfig::ever_free_share) on this many measured frames in a row is
   /// labelled dynamic, whatever its votes: it has moved into empty space. Its size must pass
@@ -68,6 +79,7 @@ struct LabelEvidence {
   bool ever_free_overruled = false;
   bool plausible_size = true;  ///< the track's size passes the size check (or the check is off)
   bool slow = false;           ///< the filtered speed is below continuity.min_speed
+  std::size_t run_frame = 0;   ///< frames the tracker processed before this (read at start())
 };
 
 /// The states of LabelState: why a track carries its label.
@@ -108,6 +120,8 @@ class LabelState {
   std::size_t dynamic_frames_ = 0;    ///< frames measured() left in kDynamic (saturates)
   std::size_t held_frames_ = 0;       ///< measured frames of the current hold (0: none)
   bool every_vote_dynamic_ = true;    ///< no static vote and no missed frame since the first vote
+  bool missed_after_vote_ = false;    ///< a missed frame since the first vote
+  bool young_run_allowed_ = false;    ///< started late enough for LabelConfig::early_while_young
 };
 
 }  // namespace dynamap

@@ -240,6 +240,7 @@ class Tracker {
   std::uint32_t next_id_ = 1;
   Stamp last_stamp_ = 0;
   bool has_stamp_ = false;
+  std::size_t frames_processed_ = 0;  ///< updates since clear(), for LabelEvidence::run_frame
   std::uint64_t refused_tracks_ = 0;
   std::uint64_t dropped_tracks_ = 0;
 };
