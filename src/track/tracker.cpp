@@ -94,6 +94,7 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
   m.edges << box.min.head<2>(), box.max.head<2>();
   m.in_view = fully_in_view(det.image_box);
   m.near_enough = det.near_depth <= config_.size_fix_max_depth;
+  m.on_static = det.static_share > config_.max_static_share;
   m.size = m.raw_size;
   m.own_size = m.raw_size;
   const bool round = config_.max_round_footprint <= 0.f ||
@@ -129,6 +130,7 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
 
 void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept {
   t.active = true;
+  t.dormant = false;
   t.out = TrackedObstacle{};
   t.out.id = next_id_++;
   t.out.age = 1;
@@ -195,6 +197,7 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   ++t.out.hits;
   t.out.last_seen = stamp;
   t.label.measured(evidence(t, det), config_.continuity, config_.label);
+  t.dormant = false;
 }
 
 bool Tracker::plausible_size(const Eigen::Vector3f& size) const noexcept {
@@ -344,6 +347,8 @@ void Tracker::associate(std::size_t count) noexcept {
     for (std::size_t s = 0; s < kMaxTracks; ++s) {
       const Track& t = tracks_[s];
       if (!t.active) continue;
+      // A hidden walker comes back as a body, not as the wall or crate it went behind.
+      if (t.dormant && m.on_static) continue;
       const Eigen::Vector2f predicted = t.kf.position();
       const Box3 track_box =
           Box3::from_center_size(Eigen::Vector3f(predicted.x(), predicted.y(), t.z_center), t.size);
@@ -369,9 +374,15 @@ void Tracker::coast_unmatched() noexcept {
     ++t.out.missed_frames;
     t.out.detection = -1;
     t.label.missed();
-    if (t.out.missed_frames > config_.max_missed_frames) {
+    if (t.out.missed_frames <= config_.max_missed_frames) continue;
+    // Only a track whose vote window still says dynamic: it comes back labelled.
+    const std::size_t extra = t.label.dynamic() ? config_.reacquire_frames : 0;
+    if (t.out.missed_frames > config_.max_missed_frames + extra) {
       t.active = false;
+      t.dormant = false;
       ++dropped_tracks_;
+    } else {
+      t.dormant = true;
     }
   }
 }
@@ -384,11 +395,19 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp
     while (free_slot < kMaxTracks && (tracks_[free_slot].active || frame_.track_used[free_slot])) {
       ++free_slot;
     }
-    if (free_slot == kMaxTracks) {
+    std::size_t slot = free_slot;
+    if (slot == kMaxTracks) {
+      // Every slot taken: a dormant track gives way to a detection in view.
+      for (slot = 0; slot < kMaxTracks; ++slot) {
+        if (tracks_[slot].dormant && !frame_.track_used[slot]) break;
+      }
+      if (slot < kMaxTracks) ++dropped_tracks_;
+    }
+    if (slot >= kMaxTracks) {
       ++refused_tracks_;
       continue;
     }
-    Track& t = tracks_[free_slot];
+    Track& t = tracks_[slot];
     start_track(t, frame_.meas[i], stamp);
     t.out.detection = static_cast<std::int32_t>(i);
     t.out.cut = !frame_.meas[i].in_view;
@@ -397,7 +416,7 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp
     e.plausible_size = plausible_size(t.size);
     e.run_frame = frames_processed_;
     t.label.start(e, config_.label);
-    ++free_slot;
+    if (slot == free_slot) ++free_slot;
   }
 }
 
@@ -405,7 +424,7 @@ void Tracker::publish() noexcept {
   output_count_ = 0;
   for (std::size_t s = 0; s < kMaxTracks; ++s) {
     Track& t = tracks_[s];
-    if (!t.active) continue;
+    if (!t.active || t.dormant) continue;
     const Eigen::Vector2f p = t.kf.position();
     const Eigen::Vector2f v = t.kf.velocity();
     t.out.box = Box3::from_center_size(Eigen::Vector3f(p.x(), p.y(), t.z_center), t.size);

@@ -92,7 +92,9 @@ TEST(TrackerAssociation, CrossingTargetsKeepTheirIds) {
 }
 
 TEST(TrackerAssociation, TwoMissedFramesKeepTheIdLongerGapsDropIt) {
-  auto tracker = make_tracker();  // coasts up to 3 frames
+  TrackerConfig config;
+  config.reacquire_frames = 0;  // coasts up to 3 frames, then ends (the original's rule)
+  auto tracker = make_tracker(config);
   Stamp stamp = 0;
   auto at = [](int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); };
   int f = 0;
@@ -124,6 +126,78 @@ TEST(TrackerAssociation, TwoMissedFramesKeepTheIdLongerGapsDropIt) {
   const Detection again = detection(at(f));
   ASSERT_EQ(tracker->update(&again, 1, camera_at(), stamp += kFrame), Status::kOk);
   ASSERT_EQ(tracker->size(), 1u);
+  EXPECT_GT(tracker->obstacle(0).id, id);
+}
+
+// A walker labelled dynamic, hidden for 10 frames (behind a pillar): unpublished once it has
+// missed more than 3 frames, then taken up again by its detection with its id and label.
+// Hidden for longer than max_missed_frames + reacquire_frames it ends; a static track ends
+// after max_missed_frames as before.
+TEST(TrackerAssociation, DynamicTrackHiddenForAMomentIsTakenUpAgainWithItsLabel) {
+  for (const int hidden : {10, 19}) {
+    auto tracker = make_tracker();  // coasts 3 frames, kept unpublished 15 more
+    Stamp stamp = 0;
+    auto at = [](int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); };
+    int f = 0;
+    for (; f < 40; ++f) {
+      const Detection d = detection(at(f));
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    ASSERT_EQ(tracker->size(), 1u);
+    ASSERT_TRUE(tracker->obstacle(0).dynamic);
+    const std::uint32_t id = tracker->obstacle(0).id;
+    for (int gap = 1; gap <= hidden; ++gap, ++f) {
+      ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+      EXPECT_EQ(tracker->size(), gap <= 3 ? 1u : 0u) << "missed " << gap;
+    }
+    const Detection back = detection(at(f));
+    ASSERT_EQ(tracker->update(&back, 1, camera_at(), stamp += kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    if (hidden <= 3 + 15) {
+      EXPECT_EQ(tracker->obstacle(0).id, id);
+      EXPECT_TRUE(tracker->obstacle(0).dynamic);
+      EXPECT_EQ(tracker->dropped_tracks(), 0u);
+    } else {
+      EXPECT_GT(tracker->obstacle(0).id, id);
+      EXPECT_FALSE(tracker->obstacle(0).dynamic);
+      EXPECT_EQ(tracker->dropped_tracks(), 1u);
+    }
+  }
+  // Hidden behind a crate: at its predicted spot the detection is the crate's face (voxels
+  // the map has held occupied for long): it starts a new static track, the dormant one stays.
+  {
+    auto tracker = make_tracker();
+    Stamp stamp = 0;
+    auto at = [](int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); };
+    int f = 0;
+    for (; f < 40; ++f) {
+      const Detection d = detection(at(f));
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    const std::uint32_t id = tracker->obstacle(0).id;
+    for (int gap = 0; gap < 10; ++gap, ++f) {
+      ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    Detection face = detection(at(f));
+    face.static_share = 1.f;
+    ASSERT_EQ(tracker->update(&face, 1, camera_at(), stamp += kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    EXPECT_GT(tracker->obstacle(0).id, id);
+    EXPECT_FALSE(tracker->obstacle(0).dynamic);
+  }
+  // Standing still (static), the same 10-frame gap ends the track.
+  auto tracker = make_tracker();
+  Stamp stamp = 0;
+  const Detection still = detection(Eigen::Vector3f(4.f, 0.f, 0.85f));
+  for (int f = 0; f < 40; ++f) {
+    ASSERT_EQ(tracker->update(&still, 1, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  ASSERT_FALSE(tracker->obstacle(0).dynamic);
+  const std::uint32_t id = tracker->obstacle(0).id;
+  for (int gap = 0; gap < 10; ++gap) {
+    ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+  }
+  ASSERT_EQ(tracker->update(&still, 1, camera_at(), stamp += kFrame), Status::kOk);
   EXPECT_GT(tracker->obstacle(0).id, id);
 }
 

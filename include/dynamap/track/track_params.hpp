@@ -95,6 +95,7 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, overlap_threshold), X, "", 0, 1, kOpen, kClosed, "top-view overlap share that pairs a detection with a track"},
     {DYNAMAP_PARAM(TrackerConfig, centre_gate), X, "m", 0, kInf, kClosed, kOpen, "or a top-view centre distance below this"},
     {DYNAMAP_PARAM(TrackerConfig, max_missed_frames), X, "frames", 0, kInf, kClosed, kOpen, "frames a track coasts unmeasured before it is dropped"},
+    {DYNAMAP_PARAM(TrackerConfig, reacquire_frames), X, "frames", 0, 1000, kClosed, kClosed, "a track whose votes say dynamic is kept this much longer, unpublished, for a detection to take it up again (0: off)"},
     {DYNAMAP_PARAM(TrackerConfig, max_coast_time), X, "s", 0, kInf, kOpen, kOpen, "a track unmeasured this long is dropped whatever the frame count"},
     {DYNAMAP_PARAM(TrackerConfig, history_length), X, "frames", 2, kMaxTrackHistory - 1, kClosed, kClosed, "k: positions kept for the continuity filter"},
     {DYNAMAP_PARAM(TrackerConfig, box_history_length), X, "frames", 1, kMaxBoxHistory, kClosed, kClosed, "f: past boxes kept for the cleaner"},

@@ -35,6 +35,12 @@ struct TrackerConfig {
   float overlap_threshold = 0.3f;     ///< top-view A_overlap / A_detection for a candidate pair
   float centre_gate = 0.22f;          ///< or a top-view centre distance below this (m)
   std::size_t max_missed_frames = 3;  ///< frames a track coasts on its prediction, then dropped
+  /// A track whose vote window says dynamic is kept this many frames longer than
+  /// max_missed_frames (0: off), predicted but not published (not an obstacle, no prediction,
+  /// nothing cleared): a detection that pairs with it, and is not on long-occupied voxels, takes
+  /// it up again with its id, label and history. A walker hidden for a moment by another or a
+  /// pillar otherwise came back as a new track that had to earn its label again.
+  std::size_t reacquire_frames = 15;
   /// Seconds a track may go unmeasured, whatever the frame count: at the next frame later than
   /// this after its last measurement it is dropped before it is predicted, so a time gap in
   /// the input (a stalled sensor) ends coasting instead of extrapolating across it. At 30 Hz,
@@ -204,6 +210,7 @@ class Tracker {
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
     std::size_t in_view_frames = 0;
     bool active = false;
+    bool dormant = false;  // beyond max_missed_frames, kept for reacquire_frames, not published
   };
   using Measurement = detail::TrackMeasurement;
   using Pair = detail::TrackPair;

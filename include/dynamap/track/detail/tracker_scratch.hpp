@@ -21,6 +21,7 @@ struct TrackMeasurement {
   Eigen::Vector4f edges;     // the detection box's top-view min x, min y, max x, max y
   bool in_view;
   bool near_enough;  // near enough for size fixing
+  bool on_static;    // on long-occupied voxels (static share above max_static_share)
 };
 /// A candidate (detection, track) association.
 struct TrackPair {
