@@ -91,40 +91,49 @@ TEST(TrackerAssociation, CrossingTargetsKeepTheirIds) {
   EXPECT_GT(a->velocity.head<2>().dot(va.head<2>()), 0.8f);  // still moving A's way
 }
 
+// A walker crossing 4 m ahead at 1 m/s, one frame at a time: seen (one detection) or hidden.
+struct CrossingWalker {
+  Tracker& tracker;
+  Stamp stamp = 0;
+  int frame = 0;  ///< the next frame
+  static Eigen::Vector3f at(int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); }
+  Status seen(float static_share = 0.f) {
+    Detection d = detection(at(frame++));
+    d.static_share = static_share;
+    return tracker.update(&d, 1, camera_at(), stamp += kFrame);
+  }
+  Status hidden() {
+    ++frame;
+    return tracker.update(nullptr, 0, camera_at(), stamp += kFrame);
+  }
+};
+
 TEST(TrackerAssociation, TwoMissedFramesKeepTheIdLongerGapsDropIt) {
   TrackerConfig config;
   config.reacquire_frames = 0;  // coasts up to 3 frames, then ends (the original's rule)
   auto tracker = make_tracker(config);
-  Stamp stamp = 0;
-  auto at = [](int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); };
-  int f = 0;
-  for (; f < 30; ++f) {
-    const Detection d = detection(at(f));
-    ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
-  }
+  CrossingWalker walker{*tracker};
+  while (walker.frame < 30) ASSERT_EQ(walker.seen(), Status::kOk);
   ASSERT_EQ(tracker->size(), 1u);
   const std::uint32_t id = tracker->obstacle(0).id;
-  for (int gap = 1; gap <= 2; ++gap, ++f) {
-    ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+  for (int gap = 1; gap <= 2; ++gap) {
+    ASSERT_EQ(walker.hidden(), Status::kOk);
     ASSERT_EQ(tracker->size(), 1u);  // coasting
     EXPECT_EQ(tracker->obstacle(0).missed_frames, static_cast<std::uint32_t>(gap));
     // The coasting box follows the prediction.
-    EXPECT_LT((tracker->obstacle(0).box.center() - at(f)).head<2>().norm(), 0.05f);
+    const Eigen::Vector3f truth = CrossingWalker::at(walker.frame - 1);
+    EXPECT_LT((tracker->obstacle(0).box.center() - truth).head<2>().norm(), 0.05f);
   }
-  const Detection back = detection(at(f++));
-  ASSERT_EQ(tracker->update(&back, 1, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(walker.seen(), Status::kOk);
   ASSERT_EQ(tracker->size(), 1u);
   EXPECT_EQ(tracker->obstacle(0).id, id);
   EXPECT_EQ(tracker->obstacle(0).missed_frames, 0u);
 
   // Four missed frames (> 3) drop it; when it shows up again it is a new obstacle.
-  for (int gap = 0; gap < 4; ++gap, ++f) {
-    ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
-  }
+  for (int gap = 0; gap < 4; ++gap) ASSERT_EQ(walker.hidden(), Status::kOk);
   EXPECT_EQ(tracker->size(), 0u);
   EXPECT_EQ(tracker->dropped_tracks(), 1u);
-  const Detection again = detection(at(f));
-  ASSERT_EQ(tracker->update(&again, 1, camera_at(), stamp += kFrame), Status::kOk);
+  ASSERT_EQ(walker.seen(), Status::kOk);
   ASSERT_EQ(tracker->size(), 1u);
   EXPECT_GT(tracker->obstacle(0).id, id);
 }
@@ -136,22 +145,16 @@ TEST(TrackerAssociation, TwoMissedFramesKeepTheIdLongerGapsDropIt) {
 TEST(TrackerAssociation, DynamicTrackHiddenForAMomentIsTakenUpAgainWithItsLabel) {
   for (const int hidden : {10, 19}) {
     auto tracker = make_tracker();  // coasts 3 frames, kept unpublished 15 more
-    Stamp stamp = 0;
-    auto at = [](int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); };
-    int f = 0;
-    for (; f < 40; ++f) {
-      const Detection d = detection(at(f));
-      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
-    }
+    CrossingWalker walker{*tracker};
+    while (walker.frame < 40) ASSERT_EQ(walker.seen(), Status::kOk);
     ASSERT_EQ(tracker->size(), 1u);
     ASSERT_TRUE(tracker->obstacle(0).dynamic);
     const std::uint32_t id = tracker->obstacle(0).id;
-    for (int gap = 1; gap <= hidden; ++gap, ++f) {
-      ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+    for (int gap = 1; gap <= hidden; ++gap) {
+      ASSERT_EQ(walker.hidden(), Status::kOk);
       EXPECT_EQ(tracker->size(), gap <= 3 ? 1u : 0u) << "missed " << gap;
     }
-    const Detection back = detection(at(f));
-    ASSERT_EQ(tracker->update(&back, 1, camera_at(), stamp += kFrame), Status::kOk);
+    ASSERT_EQ(walker.seen(), Status::kOk);
     ASSERT_EQ(tracker->size(), 1u);
     if (hidden <= 3 + 15) {
       EXPECT_EQ(tracker->obstacle(0).id, id);
@@ -167,20 +170,11 @@ TEST(TrackerAssociation, DynamicTrackHiddenForAMomentIsTakenUpAgainWithItsLabel)
   // the map has held occupied for long): it starts a new static track, the dormant one stays.
   {
     auto tracker = make_tracker();
-    Stamp stamp = 0;
-    auto at = [](int f) { return Eigen::Vector3f(4.f, -1.f + f / 30.f, 0.85f); };
-    int f = 0;
-    for (; f < 40; ++f) {
-      const Detection d = detection(at(f));
-      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
-    }
+    CrossingWalker walker{*tracker};
+    while (walker.frame < 40) ASSERT_EQ(walker.seen(), Status::kOk);
     const std::uint32_t id = tracker->obstacle(0).id;
-    for (int gap = 0; gap < 10; ++gap, ++f) {
-      ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
-    }
-    Detection face = detection(at(f));
-    face.static_share = 1.f;
-    ASSERT_EQ(tracker->update(&face, 1, camera_at(), stamp += kFrame), Status::kOk);
+    for (int gap = 0; gap < 10; ++gap) ASSERT_EQ(walker.hidden(), Status::kOk);
+    ASSERT_EQ(walker.seen(/*static_share=*/1.f), Status::kOk);
     ASSERT_EQ(tracker->size(), 1u);
     EXPECT_GT(tracker->obstacle(0).id, id);
     EXPECT_FALSE(tracker->obstacle(0).dynamic);
