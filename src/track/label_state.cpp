@@ -27,13 +27,16 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
     voter_.push(e.dynamic_vote, continuity);
     dynamic_streak_ = e.dynamic_vote ? dynamic_streak_ + 1 : 0;
     if (!e.dynamic_vote) every_vote_dynamic_ = false;
-    // The early run counts for a track whose votes were all dynamic, one dynamic before, or a
-    // young one (window not full, no gap) that started after the run's first second.
-    const bool early =
+    // The early run counts for a track whose votes were all dynamic, one dynamic before (or with
+    // an early run beyond the range), or a young one (window not full, no gap) that started
+    // after the run's first second. It labels only within early_max_depth.
+    const bool early_run =
         config.early_votes > 0 && dynamic_streak_ >= config.early_votes &&
-        (every_vote_dynamic_ || dynamic_frames_ > 0 ||
+        (every_vote_dynamic_ || dynamic_frames_ > 0 || early_run_beyond_range_ ||
          (young_run_allowed_ && !missed_after_vote_ && voter_.votes() < continuity.vote_window));
-    votes_say = voter_.dynamic() || early;
+    const bool in_range = config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth;
+    if (early_run && !in_range) early_run_beyond_range_ = true;
+    votes_say = voter_.dynamic() || (early_run && in_range);
   } else {
     dynamic_streak_ = 0;  // an abstention (no history yet, or not rigid) ends the early run
   }

@@ -156,6 +156,42 @@ TEST_F(LabelStateTest, EarlyRunAfterStaticVotesNeedsATrackStartedAfterTheMapHadH
   EXPECT_EQ(s.mode(), LabelMode::kDynamic);
 }
 
+TEST_F(LabelStateTest, EarlyRunLabelsOnlyWithinTheMapsRange) {
+  // Beyond early_max_depth the map holds no static evidence to stop a sliding wall end, so the
+  // early run waits; the vote window still decides, and a walker coming nearer is labelled at
+  // the first frame of its run within range.
+  lc.early_votes = 4;
+  LabelEvidence far = vote(true);
+  far.near_depth = lc.early_max_depth + 0.5f;
+  s.start(no_vote(false), lc);
+  measure(far, cc.dynamic_votes - 1);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  EXPECT_EQ(s.dynamic_streak(), cc.dynamic_votes - 1);
+  LabelEvidence near = far;
+  near.near_depth = lc.early_max_depth;
+  measure(near);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+
+  s.start(no_vote(false), lc);
+  measure(far, cc.dynamic_votes);  // T_c of c: dynamic at any range
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+
+  // An early run beyond the range counts as a label earned: after static votes fill the window,
+  // E dynamic votes within range re-label the track, as they do a walker after a pause.
+  s.start(no_vote(false), lc);
+  measure(far, 4);
+  measure(vote(false), cc.vote_window);
+  measure(near, 3);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(near);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+
+  lc.early_max_depth = 0.f;  // no limit
+  s.start(no_vote(false), lc);
+  measure(far, 4);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+}
+
 TEST_F(LabelStateTest, EarlyRunSurvivesAbstentionsBeforeItButNotInsideIt) {
   // Frames without a vote (a walker still stepping out from behind a pillar) leave "every vote
   // dynamic" alone, but a run of E dynamic votes must not straddle one.

@@ -711,6 +711,32 @@ TEST(TrackerLabels, CleanWalkerIsLabelledEarly) {
   }
 }
 
+// The same walker beyond the map's range (6 m away): no static evidence can stop a far wall end
+// there, so the early run does not label it; the vote window does, later.
+TEST(TrackerLabels, WalkerBeyondTheMapsRangeWaitsForTheVoteWindow) {
+  for (const float limit : {5.f, 0.f}) {
+    TrackerConfig config;
+    config.label.early_max_depth = limit;
+    auto tracker = make_tracker(config);
+    std::mt19937 rng(1);
+    std::normal_distribution<float> noise(0.f, 0.016f);
+    const Eigen::Vector3f start(6.f, -1.5f, 0.85f);
+    const Eigen::Vector3f v(0.f, 1.f, 0.f);
+    const LabelRun run = run_target(*tracker, 45, [&](int f, Box3* box) {
+      if (box != nullptr) return Eigen::Vector3f();
+      return Eigen::Vector3f(start + v * (f / 30.f) + Eigen::Vector3f(noise(rng), noise(rng), 0.f));
+    });
+    if (limit > 0.f) {  // T_c dynamic votes instead of the first early_votes
+      const int extra =
+          static_cast<int>(config.continuity.dynamic_votes - config.label.early_votes);
+      EXPECT_EQ(run.first_dynamic, 9 + extra);
+    } else {
+      EXPECT_EQ(run.first_dynamic, 9);
+    }
+    EXPECT_TRUE(tracker->obstacle(0).dynamic);
+  }
+}
+
 // The same walker detected on only three frames of four (the wall pieces that pass a vote
 // flicker like that): no early label, only the T_c rule's, much later. Its runs of dynamic votes
 // are 3 long, one short of early_votes.

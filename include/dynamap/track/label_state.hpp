@@ -47,6 +47,13 @@ struct LabelConfig {
   /// (cleaner.static_margin_frames); beside a track from the run's first second nothing is old
   /// enough to keep, so such a track needs every vote dynamic.
   std::size_t young_run_from_frame = 30;
+  /// The early run labels only a detection whose nearest surface is at most this far (m, camera
+  /// depth; 0: no limit). Four votes are enough because a wall piece sliding in the view lies on
+  /// voxels the map has held for long and votes static; beyond the map's range
+  /// (map.max_depth, 5 m) there is no such evidence, and far windows and wall ends sliding
+  /// between pillars as the camera flies passed four votes. Beyond it the T_c of c rule decides;
+  /// a track with an early run beyond it is then re-labelled like one that was dynamic before.
+  float early_max_depth = 5.0f;
   /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
   /// observed free (TrackerConfig::ever_free_share) on this many measured frames in a row is
   /// labelled dynamic, whatever its votes: it has moved into empty space. Its size must pass
@@ -80,6 +87,7 @@ struct LabelEvidence {
   bool plausible_size = true;  ///< the track's size passes the size check (or the check is off)
   bool slow = false;           ///< the filtered speed is below continuity.min_speed
   std::size_t run_frame = 0;   ///< frames the tracker processed before this (read at start())
+  float near_depth = 0.f;      ///< camera depth of the detection's nearest surface (m)
 };
 
 /// The states of LabelState: why a track carries its label.
@@ -122,6 +130,7 @@ class LabelState {
   bool every_vote_dynamic_ = true;    ///< no static vote and no missed frame since the first vote
   bool missed_after_vote_ = false;    ///< a missed frame since the first vote
   bool young_run_allowed_ = false;    ///< started late enough for LabelConfig::early_while_young
+  bool early_run_beyond_range_ = false;  ///< an early run beyond early_max_depth (not labelled)
 };
 
 }  // namespace dynamap
