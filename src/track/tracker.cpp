@@ -94,7 +94,7 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
   m.edges << box.min.head<2>(), box.max.head<2>();
   m.in_view = fully_in_view(det.image_box);
   m.near_enough = det.near_depth <= config_.size_fix_max_depth;
-  m.on_static = det.static_share > config_.max_static_share;
+  m.on_static = on_static_structure(det);
   m.size = m.raw_size;
   m.own_size = m.raw_size;
   const bool round = config_.max_round_footprint <= 0.f ||
@@ -247,8 +247,8 @@ void Tracker::update_size(Track& t, const Measurement& m) noexcept {
 
 void Tracker::ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept {
   e->in_ever_free = det.ever_free >= config_.ever_free_share;
-  e->ever_free_overruled = e->in_ever_free && config_.static_overrules_ever_free &&
-                           det.static_share > config_.max_static_share;
+  e->ever_free_overruled =
+      e->in_ever_free && config_.static_overrules_ever_free && on_static_structure(det);
 }
 
 LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
@@ -270,7 +270,7 @@ LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
   const float speed = t.kf.velocity().norm();
   const ContinuityFilter filter(config_.continuity);
   // A detection on long-occupied voxels lies on static structure: it votes static.
-  const bool on_static = det.static_share > config_.max_static_share;
+  const bool on_static = on_static_structure(det);
   const bool moving = filter.vote(speed, c_con, t.size) && !on_static;
   const bool rigid = moving && moves_rigidly(t);
   // Only before the track's first vote: a wall piece that passed a vote keeps its static ones.

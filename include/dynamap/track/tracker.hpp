@@ -234,6 +234,10 @@ class Tracker {
   LabelEvidence evidence(Track& t, const Detection& det) const noexcept;
   void ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept;
   bool plausible_size(const Eigen::Vector3f& size) const noexcept;
+  /// Most of the detection's voxels long occupied (static share above max_static_share).
+  bool on_static_structure(const Detection& det) const noexcept {
+    return det.static_share > config_.max_static_share;
+  }
   void publish() noexcept;
 
   TrackerConfig config_{};
