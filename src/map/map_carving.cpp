@@ -163,6 +163,29 @@ void MapIntegrator::list_tile_rays(std::size_t t) noexcept {
   tile.ray_end = n;
 }
 
+/// The end of the free walk of a hit ray at camera depth z: depth noise puts returns behind
+/// their surface, so no voxel any part of which lies within carve_gap_quadratic * z^2 of the
+/// end point is carved. The walk ends in the voxel before the one holding the point that far
+/// short, where the ray enters that voxel. False when that is the camera's own voxel.
+bool MapIntegrator::stop_short(float z, const Eigen::Array4f& dir, Eigen::Array4f& end,
+                               IndexVec& last) const noexcept {
+  const float stop = z - p_->config.carve_gap_quadratic * z * z;
+  if (stop <= 0.f) return false;
+  const Eigen::Array4f x = (g_.origin4 + dir * stop) * p_->inv_resolution;
+  float t_entry = 0.f;  // camera depth at which the ray enters the stop point's voxel
+  for (int a = 0; a < 3; ++a) {
+    if (dir[a] == 0.f) continue;
+    const float face =
+        static_cast<float>(fast_floor(x[a]) + (dir[a] > 0.f ? 0 : 1)) * p_->resolution;
+    t_entry = std::max(t_entry, (face - g_.origin4[a]) / dir[a]);
+  }
+  if (t_entry <= 0.f) return false;
+  end = g_.origin4 + dir * (t_entry * (1.f - 1e-5f));
+  const Eigen::Array4f e = end * p_->inv_resolution;
+  last = {fast_floor(e[0]), fast_floor(e[1]), fast_floor(e[2])};
+  return true;
+}
+
 /// The walk of the ray of `pixel` (false when its depth is too near): from its end voxel to
 /// the camera's when from_end (early stop), else from the camera's to its end voxel.
 bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const IndexVec& camera,
@@ -180,6 +203,12 @@ bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const
                  end_is_hit)) {
     return false;
   }
+  if (end_is_hit && p_->config.carve_gap_quadratic > 0.f &&
+      !stop_short(static_cast<float>(depth.at(u, v)) * g_.depth_scale,
+                  g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v), end, last)) {
+    return false;
+  }
+  end_is_hit = end_is_hit && p_->config.carve_gap_quadratic <= 0.f;
   // Parameter t in [0, 1] along from_point -> from_point + d. The far part of a ray is its own,
   // the near part mostly what earlier rays (its neighbours in pixel order) already carved, so
   // that is where the early-stop walk, which goes backwards, can stop.

@@ -168,6 +168,8 @@ class MapIntegrator {
   std::size_t order_rays(int tiles, bool by_level) noexcept;
   void list_tile_rays(std::size_t tile) noexcept;
   void order_tile_claims() noexcept;
+  bool stop_short(float z, const Eigen::Array4f& dir, Eigen::Array4f& end,
+                  IndexVec& last) const noexcept;
   bool start_ray(std::uint32_t pixel, const DepthView& depth, const IndexVec& camera, bool from_end,
                  RayWalk& w) const noexcept;
   template <bool kEarlyStop, class Cursor>
