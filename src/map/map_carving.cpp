@@ -180,6 +180,8 @@ bool MapIntegrator::stop_short(float z, const Eigen::Array4f& dir, Eigen::Array4
     t_entry = std::max(t_entry, (face - g_.origin4[a]) / dir[a]);
   }
   if (t_entry <= 0.f) return false;
+  // A near-parallel axis can round its face past the point; the entry is never beyond it.
+  t_entry = std::min(t_entry, stop);
   end = g_.origin4 + dir * (t_entry * (1.f - 1e-5f));
   const Eigen::Array4f e = end * p_->inv_resolution;
   last = {fast_floor(e[0]), fast_floor(e[1]), fast_floor(e[2])};
