@@ -205,12 +205,13 @@ bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const
                  end_is_hit)) {
     return false;
   }
-  if (end_is_hit && p_->config.carve_gap_quadratic > 0.f &&
-      !stop_short(static_cast<float>(depth.at(u, v)) * g_.depth_scale,
-                  g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v), end, last)) {
-    return false;
+  if (end_is_hit && p_->config.carve_gap_quadratic > 0.f) {
+    if (!stop_short(static_cast<float>(depth.at(u, v)) * g_.depth_scale,
+                    g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v), end, last)) {
+      return false;
+    }
+    end_is_hit = false;  // the walk now ends short of the hit and carves its last voxel
   }
-  end_is_hit = end_is_hit && p_->config.carve_gap_quadratic <= 0.f;
   // Parameter t in [0, 1] along from_point -> from_point + d. The far part of a ray is its own,
   // the near part mostly what earlier rays (its neighbours in pixel order) already carved, so
   // that is where the early-stop walk, which goes backwards, can stop.
