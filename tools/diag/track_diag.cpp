@@ -115,7 +115,8 @@ void write_track_row(std::ostream& os, std::size_t f, const SequenceFrame& sf,
   write_detection_fields(os, ob, dets);
   os << "," << sf.pose.translation.x() << "," << sf.pose.translation.y();
   write_raw_fields(os, ob, dets);
-  os << "," << ob.dynamic_streak << "," << sz.z() << "\n";
+  os << "," << ob.dynamic_streak << "," << sz.z() << "," << std::sqrt(ob.velocity_covariance(0, 0))
+     << "," << std::sqrt(ob.velocity_covariance(1, 1)) << "," << ob.cut << "\n";
 }
 
 int run(int argc, char** argv) {
@@ -138,7 +139,8 @@ int run(int argc, char** argv) {
                "size_fixed,sx,sy,gt_id,gt_dist,gt_vx,gt_vy,gt_visible,gt_depth,gt_turn_rate,det,"
                "det_x,det_y,"
                "det_sx,det_sy,det_u0,det_u1,det_v0,det_v1,det_near,det_touch_nearer,det_touch,"
-               "cam_x,cam_y,raw_x,raw_y,raw_sx,raw_sy,refined,ever_free,static_share,streak,sz\n";
+               "cam_x,cam_y,raw_x,raw_y,raw_sx,raw_sy,refined,ever_free,static_share,streak,sz,svx,"
+               "svy,cut\n";
   auto out = std::make_unique<FrameOutput>();
   for (std::size_t f = 0; f < seq.frames.size(); ++f) {
     const SequenceFrame& sf = seq.frames[f];
