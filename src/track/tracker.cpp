@@ -10,6 +10,10 @@ namespace dynamap {
 
 namespace {
 
+/// Weight of the newest frame in the box growth rate behind the reported velocity σ: about
+/// three frames, long enough to average out a box's jitter, short enough to follow an emergence.
+constexpr float kGrowthSmoothing = 0.3f;
+
 float seconds_between(Stamp earlier, Stamp later) noexcept {
   return static_cast<float>(static_cast<double>(later - earlier) * 1e-9);
 }
@@ -148,6 +152,8 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.z_center = m.center.z();
   t.size = m.size;
   t.corrected_with = m.size;
+  t.last_raw_size = m.raw_size.head<2>();
+  t.growth_rate.setZero();
   const bool counts = m.in_view && m.near_enough;
   t.in_view_frames = counts ? 1 : 0;
   t.size_sum = counts ? m.size : Eigen::Vector3f::Zero();
@@ -185,6 +191,10 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
     noise_scale = (q * q) * (q * q);
   }
   (void)t.kf.update(Eigen::Vector4f(xy.x(), xy.y(), v_meas.x(), v_meas.y()), noise_scale);
+  // Signed, so a box's frame-to-frame jitter averages out and only a steady growth remains.
+  const Eigen::Vector2f growth = (m.raw_size.head<2>() - t.last_raw_size) / dt;
+  t.growth_rate += kGrowthSmoothing * (growth - t.growth_rate);
+  t.last_raw_size = m.raw_size.head<2>();
 
   t.last_measured = xy;
   t.last_measured_stamp = stamp;
@@ -431,7 +441,9 @@ void Tracker::publish() noexcept {
     t.out.box = Box3::from_center_size(Eigen::Vector3f(p.x(), p.y(), t.z_center), t.size);
     t.out.velocity = Eigen::Vector3f(v.x(), v.y(), 0.f);
     t.out.speed = v.norm();
+    const Eigen::Vector2f bias = config_.velocity_sigma_growth_share * t.growth_rate;
     t.out.velocity_covariance = t.kf.velocity_covariance();
+    t.out.velocity_covariance.diagonal() += bias.cwiseProduct(bias);
     t.out.dynamic = t.label.dynamic();
     t.out.dynamic_votes = static_cast<std::uint32_t>(t.label.voter().dynamic_votes());
     t.out.votes = static_cast<std::uint32_t>(t.label.voter().votes());

@@ -361,7 +361,8 @@ TEST(TrackerLabels, NoisyWalkerIsDynamicWithinOneSecond) {
   }
 }
 
-// The reported velocity covariance is the filter's. Under the measurement noise the filter
+// The reported velocity covariance is the filter's (boxes of a constant size). Under the
+// measurement noise the filter
 // assumes (centre noise sigma = sqrt(r_position)) it is never overconfident: a straight walker
 // has none of the accelerations the process noise allows for, so its errors fall inside 1 sigma
 // more often than a Gaussian's 68 % (how well it fits real walkers is measured by dynamap-eval on
@@ -406,6 +407,42 @@ TEST(TrackerVelocity, CovarianceIsNeverOverconfidentUnderTheFilterNoiseModel) {
               share2, n);
   EXPECT_GT(share1, 0.683);  // a Gaussian's share
   EXPECT_GT(share2, 0.954);
+}
+
+// A person standing still while emerging from behind something: the box grows on one side at
+// 0.9 m/s, so its centre slides at 0.45 m/s and the filter reads that as motion. The reported
+// sigma must own up to it (the true velocity, 0, within 2 sigma); the filter's covariance alone
+// claims a confident wrong value. Once the box stops growing the sigma narrows again. (The
+// near-surface correction is off: for a round footprint it would move this centre back.)
+TEST(TrackerVelocity, AGrowingBoxWidensTheReportedSigmaByItsCentreSlide) {
+  for (const float share : {0.5f, 0.f}) {
+    TrackerConfig config;
+    config.correct_near_surface_bias = false;
+    config.velocity_sigma_growth_share = share;
+    auto tracker = make_tracker(config);
+    std::size_t covered = 0, frames = 0;
+    float settled_sigma = 0.f;
+    for (int f = 0; f < 60; ++f) {
+      const float width = std::min(0.1f + 0.03f * static_cast<float>(f), 0.5f);  // y extent
+      const Eigen::Vector3f size(0.5f, width, 1.7f);
+      const Detection d = detection(Eigen::Vector3f(4.f, 0.5f * width, 0.85f), size);
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), kFrame * (f + 1)), Status::kOk);
+      ASSERT_EQ(tracker->size(), 1u);
+      const TrackedObstacle& o = tracker->obstacle(0);
+      const float sigma_y = std::sqrt(o.velocity_covariance(1, 1));
+      if (f >= 3 && f <= 13) {  // growing, past the filter's first displacements
+        ++frames;
+        covered += std::fabs(o.velocity.y()) <= 2.f * sigma_y;
+      }
+      if (f == 59) settled_sigma = sigma_y;
+    }
+    if (share > 0.f) {
+      EXPECT_EQ(covered, frames) << "the slide is outside 2 sigma";
+      EXPECT_LT(settled_sigma, 0.2f) << "a box that stopped growing keeps a wide sigma";
+    } else {
+      EXPECT_LT(covered, frames / 2) << "the filter alone should be overconfident here";
+    }
+  }
 }
 
 TEST(TrackerLabels, ADetectionOnLongOccupiedVoxelsVotesStatic) {

@@ -104,6 +104,7 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, image_margin), X, "px", 0, kMaxImageHeight, kClosed, kClosed, "an image box this close to the border is cut, not fully in view"},
     {DYNAMAP_PARAM(TrackerConfig, size_fix_max_depth), X, "m", 0, kInf, kOpen, kOpen, "only nearer detections count towards the frozen size"},
     {DYNAMAP_PARAM(TrackerConfig, noise_reference_depth), X, "m", 0, kInf, kClosed, kOpen, "measurement noise grows with (depth / this)^4 beyond it (0: off)"},
+    {DYNAMAP_PARAM(TrackerConfig, velocity_sigma_growth_share), X, "", 0, kInf, kClosed, kOpen, "reported velocity sigma adds this share of the box's growth rate (0: filter's alone)"},
     {DYNAMAP_PARAM(TrackerConfig, correct_near_surface_bias), X, "", 0, 1, kClosed, kClosed, "move box centres back by half their missing depth"},
     {DYNAMAP_PARAM(TrackerConfig, max_extent_change_ratio), X, "", -kInf, kInf, kOpen, kOpen, "rigid-motion test of the vote (negative: off)"},
     {DYNAMAP_PARAM(TrackerConfig, abstain_when_not_rigid), X, "", 0, 1, kClosed, kClosed, "before a track's first vote, a frame failing only the rigid-motion test casts no vote (not a static one)"},

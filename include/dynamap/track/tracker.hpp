@@ -57,6 +57,11 @@ struct TrackerConfig {
   /// noise is scaled by (near_depth / noise_reference_depth)^4, so far, jittering boxes (a wall
   /// piece 7 m away) do not gain a speed. 0 disables the scaling.
   float noise_reference_depth = 3.0f;
+  /// The reported velocity covariance adds (this × the measured box's growth rate)² per axis to
+  /// the filter's: a box growing on one side (a person emerging from behind something or from
+  /// the image border) moves its centre at half the growth rate without the person moving, a
+  /// bias the filter cannot see. Reporting only (0: the filter's covariance alone).
+  float velocity_sigma_growth_share = 0.5f;
   /// Shift depth boxes away from the camera by half their missing depth (docs/tracker.md).
   bool correct_near_surface_bias = true;
   /// Rigid-motion test of the vote: over the position history, the detection box's top-view
@@ -140,8 +145,9 @@ struct TrackedObstacle {
   Box3 box;                                            ///< filtered centre, estimated full size
   Eigen::Vector3f velocity = Eigen::Vector3f::Zero();  ///< (vx, vy, 0) from the Kalman filter
   float speed = 0.f;                                   ///< |velocity| (m/s)
-  /// Covariance of (vx, vy) from the Kalman filter ((m/s)^2): a planner can weight the velocity
-  /// by it. A new track starts wide (tracker.kalman.p0_velocity) and narrows as it is measured.
+  /// Covariance of (vx, vy) ((m/s)^2): a planner can weight the velocity by it. The Kalman
+  /// filter's (a new track starts wide, tracker.kalman.p0_velocity, and narrows as it is
+  /// measured), widened while the box grows or shrinks (velocity_sigma_growth_share).
   Eigen::Matrix2f velocity_covariance = Eigen::Matrix2f::Zero();
   float continuity = 0.f;   ///< last C_con (0 until computable)
   bool dynamic = false;     ///< label after voting
@@ -208,6 +214,8 @@ class Tracker {
     Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
     Eigen::Vector3f corrected_with = Eigen::Vector3f::Zero();  // size behind the last correction
     Eigen::Vector3f size_sum = Eigen::Vector3f::Zero();
+    Eigen::Vector2f last_raw_size = Eigen::Vector2f::Zero();  // top-view extent last measured
+    Eigen::Vector2f growth_rate = Eigen::Vector2f::Zero();    // smoothed d(extent)/dt (m/s)
     std::size_t in_view_frames = 0;
     bool active = false;
     bool dormant = false;  // beyond max_missed_frames, kept for reacquire_frames, not published
