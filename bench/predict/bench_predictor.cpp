@@ -1,8 +1,8 @@
 // Prediction time per frame: 10 dynamic obstacles walking through a cluttered static map
 // (pillars and wall segments in a 12 m x 12 m room whose air is observed free, real
-// OccupancyMap), Markov predictor with l = 5 and l = 15, with and without the far-field layer
-// (fed a 640x480 frame of the room's walls, pillars and segments rendered from its west wall),
-// and the linear baseline. One iteration = one frame = predict() for all 10.
+// OccupancyMap), Markov predictor with l = 9 (the default), 5 and 15, with and without the
+// far-field layer (fed a 640x480 frame of the room's walls, pillars and segments rendered from its
+// west wall), and the linear baseline. One iteration = one frame = predict() for all 10.
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -158,11 +158,14 @@ void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto
 }
 
 // Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7),
-// far-field layer lookups (1 = default, 0 off; the layer's update is BM_FarFieldUpdate).
+// far-field layer lookups (1 = default, 0 off; the layer's update is BM_FarFieldUpdate), the
+// outermost paths' heading change in degrees (180 = default; l = 5 to 90 was the default before
+// the U-turns, the same 45-degree spacing).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
   MarkovPredictorConfig cfg;
   cfg.paths.num_paths = static_cast<std::size_t>(state.range(0));
+  cfg.paths.max_heading_change = static_cast<float>(state.range(3)) * 3.14159265f / 180.0f;
   cfg.clearance.max_lines = static_cast<std::size_t>(state.range(1));
   const FarFieldLayer* far = state.range(2) != 0 ? sc.far.get() : nullptr;
   auto mp = std::make_unique<MarkovPredictor>();
@@ -190,12 +193,14 @@ void BM_MarkovPredictor(benchmark::State& state) {
   state.counters["occupied_voxels"] = static_cast<double>(sc.occupied_voxels);
 }
 BENCHMARK(BM_MarkovPredictor)
-    ->ArgNames({"l", "max_lines", "far"})
-    ->Args({5, 9, 1})
-    ->Args({5, 9, 0})
-    ->Args({15, 9, 1})
-    ->Args({5, 3, 1})
-    ->Args({15, 3, 1})
+    ->ArgNames({"l", "max_lines", "far", "deg"})
+    ->Args({9, 9, 1, 180})
+    ->Args({5, 9, 1, 90})
+    ->Args({7, 9, 1, 135})
+    ->Args({9, 9, 0, 180})
+    ->Args({15, 9, 1, 180})
+    ->Args({9, 3, 1, 180})
+    ->Args({15, 3, 1, 180})
     ->Repetitions(5)
     ->ReportAggregatesOnly(true)
     ->Unit(benchmark::kMicrosecond);

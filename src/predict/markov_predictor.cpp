@@ -132,17 +132,17 @@ MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstac
                                                      const FarFieldLayer* far_field,
                                                      PathPrediction* out) noexcept {
   const std::size_t l = library_.size();
-  const Eigen::Vector2f origin = obstacle.position.head<2>();
   out->track_id = obstacle.track_id;
   out->num_paths = l;
   out->free_mask = 0;
   out->far_blocked_mask = 0;
   out->any_free = false;
   std::array<float, kMaxPaths> dist{};  // Dist_i of P_env
+  std::array<PathClearance, kMaxPaths> clear{};
+  sweep_library(obstacle, map, far_field, &clear);
   float max_dist = 0.0f;
   for (std::size_t i = 0; i < l; ++i) {
-    library_.sample(i, origin, obstacle.velocity, &paths_[i]);
-    const PathClearance c = sweep_path(map, paths_[i], obstacle, config_.clearance, far_field);
+    const PathClearance& c = clear[i];
     out->free_distance[i] = c.free_distance;
     if (c.far_blocked) out->far_blocked_mask |= 1u << i;
     if (c.free) {
@@ -163,6 +163,64 @@ MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstac
     for (std::size_t i = 0; i < l; ++i) env[i] = 1.0 / static_cast<double>(l);
   }
   return env;
+}
+
+void MarkovPredictor::sweep_library(const ObstacleState& obstacle, const OccupancyQuery& map,
+                                    const FarFieldLayer* far_field,
+                                    std::array<PathClearance, kMaxPaths>* clear) noexcept {
+  // Paths turning the same way share their arc up to where the gentler one goes straight. The
+  // sharpest path of each side is swept first, its chords ending at the other paths' turn ends;
+  // a gentler path takes its hit when it lies on the shared arc, else is swept from its own turn
+  // end on. The same result as sweeping each path with those chord ends, for far less work with
+  // turns past 90 degrees.
+  const std::size_t l = library_.size();
+  const Eigen::Vector2f origin = obstacle.position.head<2>();
+  const float speed = obstacle.velocity.norm();
+  std::array<std::size_t, kMaxPaths> turn_end{};
+  std::array<std::uint32_t, 2> breaks{};  // per side: 0 left, 1 right
+  std::array<int, kMaxPaths> side{};      // -1: straight
+  for (std::size_t i = 0; i < l; ++i) {
+    library_.sample(i, origin, obstacle.velocity, &paths_[i]);
+    const float theta = library_.heading_change(i);
+    side[i] = theta > 0.0f ? 0 : (theta < 0.0f ? 1 : -1);
+    if (side[i] < 0) continue;
+    turn_end[i] = library_.turn_end_sample(i, speed);
+    breaks[static_cast<std::size_t>(side[i])] |= 1u << turn_end[i];
+  }
+  const std::array<std::size_t, 2> sharpest = {0, l - 1};
+  std::array<PathClearance, 2> shared{};  // the sharpest paths' map sweeps
+  for (std::size_t s = 0; s < 2; ++s) {
+    const std::size_t i = sharpest[s];
+    if (side[i] != static_cast<int>(s)) continue;
+    shared[s] =
+        sweep_path(map, paths_[i], obstacle, config_.clearance, nullptr, SweepSpan{0, breaks[s]});
+    (*clear)[i] = add_far_field(shared[s], paths_[i], obstacle, config_.clearance, far_field);
+  }
+  for (std::size_t i = 0; i < l; ++i) {
+    if (side[i] < 0) {
+      (*clear)[i] = sweep_path(map, paths_[i], obstacle, config_.clearance, far_field);
+      continue;
+    }
+    const auto s = static_cast<std::size_t>(side[i]);
+    if (i == sharpest[s]) continue;
+    const PathClearance& arc = shared[s];
+    if (!arc.free && arc.hit_chord < turn_end[i]) {
+      // Up to the hit the samples are the sharpest path's, and so is the far-field check.
+      (*clear)[i] = (*clear)[sharpest[s]];
+    } else {
+      // The shared arc is free in the map, and the sharpest path's far-field check covered it.
+      const PathClearance own = sweep_path(map, paths_[i], obstacle, config_.clearance, nullptr,
+                                           SweepSpan{turn_end[i], 0});
+      const float far_on_arc = (*clear)[sharpest[s]].far_distance;
+      if (far_on_arc <= paths_[i].arc_length[turn_end[i]]) {
+        (*clear)[i] = own;
+        block_at_far_wall(far_on_arc, &(*clear)[i]);
+      } else {
+        (*clear)[i] =
+            add_far_field(own, paths_[i], obstacle, config_.clearance, far_field, turn_end[i] + 1);
+      }
+    }
+  }
 }
 
 MarkovPredictor::Belief MarkovPredictor::update_belief(std::uint32_t track_id,

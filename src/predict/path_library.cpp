@@ -88,6 +88,18 @@ void sample_path(const PathLibrary& lib, std::size_t i, float speed, PathSamples
 
 }  // namespace
 
+std::size_t PathLibrary::turn_end_sample(std::size_t i, float speed) const noexcept {
+  const float theta = heading_change(i);
+  if (theta == 0.0f) return 0;
+  const PathHorizon h = horizon(speed);
+  // The same expressions as sample_path, so the sample it names is the one it puts on the arc.
+  const float ds = h.length / static_cast<float>(h.samples - 1);
+  const float s_turn = std::fabs(theta) / config_.turn_curvature;
+  std::size_t k = 0;
+  while (k + 1 < h.samples && static_cast<float>(k + 1) * ds <= s_turn) ++k;
+  return k;
+}
+
 void PathLibrary::sample_local(std::size_t i, float speed, PathSamples* out) const noexcept {
   sample_path(*this, i, speed, out,
               [out](std::size_t k, const Eigen::Vector2f& p, const Eigen::Vector2f& t) {

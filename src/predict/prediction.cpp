@@ -49,11 +49,11 @@ float exit_fraction(const Eigen::Vector2f& a, const Eigen::Vector2f& b, const Ei
 
 /// Last sample m > k such that the chord k->m stays within `tolerance` of the path: the sag of
 /// an arc of length L turning by dphi is about L * dphi / 8 (exactly 0 on straight parts).
-std::size_t chord_end(const PathSamples& path, std::size_t k, std::size_t n,
-                      float tolerance) noexcept {
+std::size_t chord_end(const PathSamples& path, std::size_t k, std::size_t n, float tolerance,
+                      std::uint32_t breaks) noexcept {
   std::size_t m = k + 1;
   const Eigen::Vector2f& t0 = path.tangent[k];
-  while (m + 1 < n) {
+  while (m + 1 < n && ((breaks >> m) & 1u) == 0) {
     const Eigen::Vector2f& t1 = path.tangent[m + 1];
     const float dot = t0.dot(t1);
     const float cross = std::fabs(t0.x() * t1.y() - t0.y() * t1.x());
@@ -108,13 +108,14 @@ SweepGeometry sweep_geometry(const ObstacleState& obstacle,
 /// occupied query); the full length, and *free = true, when none does.
 template <class Query>
 float first_hit_distance(const Query& query, const PathSamples& path, const SweepGeometry& g,
-                         const ClearanceConfig& clearance, bool* free) noexcept {
+                         const ClearanceConfig& clearance, const SweepSpan& span, bool* free,
+                         std::size_t* hit_chord) noexcept {
   *free = true;
   const std::size_t n = std::min(path.count, kMaxPathSamples);
   if (n == 0) return 0.0f;
-  std::size_t k = 0;
+  std::size_t k = span.start;
   while (k + 1 < n) {
-    const std::size_t m = chord_end(path, k, n, clearance.chord_tolerance);
+    const std::size_t m = chord_end(path, k, n, clearance.chord_tolerance, span.breaks);
     const Eigen::Vector2f n0(-path.tangent[k].y(), path.tangent[k].x());
     const Eigen::Vector2f n1(-path.tangent[m].y(), path.tangent[m].x());
     float first = 2.0f;  // fraction of this chord at the first hit; > 1 means none
@@ -143,6 +144,7 @@ float first_hit_distance(const Query& query, const PathSamples& path, const Swee
     }
     if (first <= 1.0f) {
       *free = false;
+      *hit_chord = k;
       return path.arc_length[k] + first * (path.arc_length[m] - path.arc_length[k]);
     }
     k = m;
@@ -153,7 +155,7 @@ float first_hit_distance(const Query& query, const PathSamples& path, const Swee
 /// remembered wall cell of the far-field layer; `limit` and *free = true when none does. The
 /// lines are at most one cell apart, so no cell slips between them.
 float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const SweepGeometry& g,
-                       float radius, float limit, bool* free) noexcept {
+                       float radius, float limit, std::size_t start, bool* free) noexcept {
   *free = true;
   const float cell = far.config().cell_size;
   // A remembered wall lies somewhere in its cell: the half cell is taken off the footprint so
@@ -171,7 +173,7 @@ float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const 
                                            static_cast<float>(lines - 1);
   }
   const std::size_t n = std::min(path.count, kMaxPathSamples);
-  for (std::size_t k = 0; k < n; ++k) {
+  for (std::size_t k = start; k < n; ++k) {
     if (path.arc_length[k] > limit) break;
     const Eigen::Vector2f normal(-path.tangent[k].y(), path.tangent[k].x());
     for (std::size_t j = 0; j < lines; ++j) {
@@ -185,28 +187,46 @@ float far_hit_distance(const FarFieldLayer& far, const PathSamples& path, const 
   }
   return limit;
 }
+
+/// Ends `result`'s free distance at the far-field layer's first remembered wall before it.
+void apply_far_field(const FarFieldLayer* far_field, const PathSamples& path,
+                     const SweepGeometry& g, float radius, std::size_t start,
+                     PathClearance* result) noexcept {
+  if (far_field == nullptr || !far_field->initialised() || !far_field->config().enabled) return;
+  bool far_free = true;
+  const float d =
+      far_hit_distance(*far_field, path, g, radius, result->free_distance, start, &far_free);
+  if (!far_free) block_at_far_wall(d, result);
+}
 }  // namespace
 
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance,
-                         const FarFieldLayer* far_field) noexcept {
+                         const FarFieldLayer* far_field, const SweepSpan& span) noexcept {
   const SweepGeometry g = sweep_geometry(obstacle, clearance);
   PathClearance result;
   result.free_distance =
       first_hit_distance([&map](const Eigen::Vector3f& a, const Eigen::Vector3f& b,
                                 Eigen::Vector3f* hit) { return map.segment(a, b, hit); },
-                         path, g, clearance, &result.free);
-  if (far_field != nullptr && far_field->initialised() && far_field->config().enabled) {
-    bool far_free = true;
-    const float d = far_hit_distance(*far_field, path, g, obstacle.footprint_radius,
-                                     result.free_distance, &far_free);
-    if (!far_free) {
-      result.far_blocked = result.free || d < result.free_distance;
-      result.free = false;
-      result.free_distance = std::min(result.free_distance, d);
-    }
-  }
+                         path, g, clearance, span, &result.free, &result.hit_chord);
+  apply_far_field(far_field, path, g, obstacle.footprint_radius, 0, &result);
   return result;
+}
+
+PathClearance add_far_field(const PathClearance& map_result, const PathSamples& path,
+                            const ObstacleState& obstacle, const ClearanceConfig& clearance,
+                            const FarFieldLayer* far_field, std::size_t far_start) noexcept {
+  PathClearance result = map_result;
+  apply_far_field(far_field, path, sweep_geometry(obstacle, clearance), obstacle.footprint_radius,
+                  far_start, &result);
+  return result;
+}
+
+void block_at_far_wall(float far_distance, PathClearance* result) noexcept {
+  result->far_distance = far_distance;
+  result->far_blocked = result->free || far_distance < result->free_distance;
+  result->free = false;
+  result->free_distance = std::min(result->free_distance, far_distance);
 }
 
 void write_chosen_path(const PathSamples& path, float z, PathPrediction* out) noexcept {

@@ -624,16 +624,19 @@ TEST(Pipeline, FarFieldLayerSeesTheWallBeyondTheMapRange) {
     ASSERT_EQ(out->num_predictions, 1u);
     last[static_cast<std::size_t>(enabled)] = out->predictions[0];
   }
+  // Path indices in the default library (45 degrees apart, straight in the middle).
+  const std::size_t straight = cfg.predictor.paths.num_paths / 2;
+  const std::size_t right90 = straight + 2;
   const PathPrediction& map_only = last[0];
-  EXPECT_TRUE(map_only.path_free(4));  // 90 degrees right: into the unseen wall
+  EXPECT_TRUE(map_only.path_free(right90));  // 90 degrees right: into the unseen wall
   EXPECT_EQ(map_only.far_blocked_mask, 0u);
   // The far-field layer (its own stage, covered by the zero-allocation check above) blocks the
   // turn, and not the straight path (parallel to the wall).
   const PathPrediction& with_far = last[1];
-  EXPECT_FALSE(with_far.path_free(4));
-  EXPECT_TRUE(with_far.far_blocked_mask & (1u << 4));
-  EXPECT_TRUE(with_far.path_free(2));
-  EXPECT_EQ(with_far.chosen, 2u);
+  EXPECT_FALSE(with_far.path_free(right90));
+  EXPECT_TRUE(with_far.far_blocked_mask & (1u << right90));
+  EXPECT_TRUE(with_far.path_free(straight));
+  EXPECT_EQ(with_far.chosen, straight);
 
   std::vector<float> a, b;
   const std::uint64_t ca = run_walker_trace(cfg, a, 60);

@@ -109,9 +109,12 @@ ObstacleState walker(std::uint32_t id, float x, float y, float vx, float vy) {
   return o;
 }
 
+// The scenes below were built for a library that ends at 90 degrees (l = 5: 0, +-45, +-90);
+// the default's U-turns have their own test.
 MarkovPredictorConfig markov_config(std::size_t l) {
   MarkovPredictorConfig c;
   c.paths.num_paths = l;
+  c.paths.max_heading_change = 0.5f * kPiF;
   return c;
 }
 
@@ -188,6 +191,7 @@ TEST(PathLibrary, OrderedLeftStraightRightAndMirrorSymmetric) {
   for (std::size_t l : {1u, 2u, 5u, 15u, 16u}) {
     PathLibraryConfig c;
     c.num_paths = l;
+    c.max_heading_change = 0.5f * kPiF;  // past 90 degrees the end points fold back
     PathLibrary lib;
     ASSERT_EQ(lib.init(c), Status::kOk);
     PathSamples a;
@@ -218,6 +222,7 @@ TEST(PathLibrary, OrderedLeftStraightRightAndMirrorSymmetric) {
 TEST(PathLibrary, SamplesAreConsistentArcs) {
   PathLibraryConfig c;
   c.num_paths = 7;
+  c.max_heading_change = 0.5f * kPiF;  // every turn completes within the 3 m horizon
   PathLibrary lib;
   ASSERT_EQ(lib.init(c), Status::kOk);
   const float speed = 1.3f;
@@ -252,11 +257,33 @@ TEST(PathLibrary, MapFrameFollowsVelocity) {
   PathLibrary lib;
   ASSERT_EQ(lib.init(PathLibraryConfig{}), Status::kOk);
   PathSamples p;
-  lib.sample(2, Eigen::Vector2f(1.0f, 2.0f), Eigen::Vector2f(0.0f, 1.5f), &p);  // straight, +y
+  const auto straight = static_cast<std::size_t>(lib.center_index());
+  lib.sample(straight, Eigen::Vector2f(1.0f, 2.0f), Eigen::Vector2f(0.0f, 1.5f), &p);  // +y
   EXPECT_NEAR(p.position[p.count - 1].x(), 1.0f, 1e-5f);
   EXPECT_NEAR(p.position[p.count - 1].y(), 5.0f, 1e-4f);
   lib.sample(0, Eigen::Vector2f(1.0f, 2.0f), Eigen::Vector2f(0.0f, 1.5f), &p);  // left of +y is -x
   EXPECT_LT(p.position[p.count - 1].x(), 0.0f);
+}
+
+TEST(PathLibrary, DefaultLibraryReachesUTurnsAt45DegreeSpacing) {
+  const PathLibraryConfig c;
+  PathLibrary lib;
+  ASSERT_EQ(lib.init(c), Status::kOk);
+  ASSERT_EQ(lib.size(), 9u);
+  for (std::size_t i = 0; i < lib.size(); ++i) {
+    EXPECT_NEAR(lib.heading_change(i), kPiF * (1.0f - 0.25f * static_cast<float>(i)), 1e-5f);
+  }
+  // The outermost left path at 1 m/s: a 1 m radius turn that reaches 1 m ahead and comes back
+  // towards where it started, 2 m to the left, heading back (3 rad of the 3 m horizon).
+  PathSamples p;
+  lib.sample_local(0, 1.0f, &p);
+  float reach = 0.0f;
+  for (std::size_t k = 0; k < p.count; ++k) reach = std::max(reach, p.position[k].x());
+  EXPECT_NEAR(reach, 1.0f, 0.01f);
+  const Eigen::Vector2f end = p.position[p.count - 1];
+  EXPECT_LT(end.x(), 0.2f);
+  EXPECT_NEAR(end.y(), 2.0f, 0.02f);
+  EXPECT_LT(p.tangent[p.count - 1].x(), -0.95f);
 }
 
 TEST(PathLibrary, RejectsBadConfig) {
@@ -472,6 +499,33 @@ TYPED_TEST(PredictorScenes, LCorridorPicksTheMatchingTurn) {
   }
 }
 
+// A walker 1.6 m from the end wall of a 2.9 m wide dead end, 0.5 m from its right side: every
+// path up to 90 degrees meets a wall, so a library that ends there has no free path. The
+// default's turns past 90 degrees to the left lead back out.
+TYPED_TEST(PredictorScenes, DeadEndGetsAUTurnWhereANinetyDegreeLibraryHasNoFreePath) {
+  TypeParam w;
+  w.add_box(wall(1.6f, -1.6f, 1.7f, 1.5f));    // end wall
+  w.add_box(wall(-3.0f, -1.6f, 1.7f, -1.5f));  // right side
+  w.add_box(wall(-3.0f, 1.4f, 1.7f, 1.5f));    // left side
+  const ObstacleState o = walker(4, 0.0f, -1.0f, 1.0f, 0.0f);
+  MarkovPredictor ninety;
+  ASSERT_EQ(ninety.init(markov_config(5)), Status::kOk);
+  PathPrediction out;
+  ASSERT_EQ(ninety.predict(&o, 1, w.query(), &out), Status::kOk);
+  EXPECT_FALSE(out.any_free);
+  EXPECT_TRUE(out.failed);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(MarkovPredictorConfig{}), Status::kOk);
+  for (int f = 0; f < 3; ++f) {
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    expect_valid_distribution(out);
+    EXPECT_TRUE(out.any_free);
+    EXPECT_FALSE(out.failed);
+    EXPECT_GT(mp.library().heading_change(out.chosen), 2.0f) << "frame " << f;
+    EXPECT_LT(out.position[out.num_samples - 1].x(), 0.5f);  // back the way it came
+  }
+}
+
 TYPED_TEST(PredictorScenes, ZeroHeapAllocations) {
   TypeParam w;
   build_wall_with_left_opening(w);
@@ -674,10 +728,11 @@ TEST(MarkovPredictor, WorkIsBoundedByPathsTimesSamples) {
       w.queries = 0;
       ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
       const std::size_t samples = mp.library().horizon(speed).samples;
-      // Worst case l x (samples - 1) x lines x levels; chords merge samples, at least one each.
+      // Worst case l x (samples - 1) x lines x levels; chords merge samples, and paths turning
+      // the same way share their arc (a slow walker's gentler paths are all arc: none left).
       EXPECT_LE(w.queries, l * (samples - 1) * 3 * 2);
       EXPECT_LE(w.queries, l * (kMaxPathSamples - 1) * 3 * 2);
-      EXPECT_GE(w.queries, l * 3 * 2);
+      EXPECT_GE(w.queries, std::min<std::size_t>(l, 3) * 3 * 2);
       if (l == 1) {
         EXPECT_EQ(w.queries, 3u * 2u);  // a straight path is a single chord per line
       }
@@ -1062,6 +1117,74 @@ TEST(MarkovPredictorFarField, ZeroAllocationsWithTheLayer) {
   }
   EXPECT_EQ(allocations, 0u);
   EXPECT_NE(out[0].chosen, 2u);
+}
+
+// The predictor sweeps each side's shared turning arc once (sweep_library). Its distances and
+// masks must equal sweeping every path on its own with the same chord ends (the turn ends of
+// the paths on its side no sharper than itself), over random walkers among random boxes, with
+// and without a far-field wall.
+TEST(MarkovPredictor, SharedArcSweepEqualsSweepingEveryPathAlone) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-4.0f, 4.0f);
+  std::uniform_real_distribution<float> speed(0.05f, 2.0f);
+  std::size_t compared = 0, blocked = 0, far_walls = 0;
+  for (int world = 0; world < 20; ++world) {
+    MapWorld w;
+    for (int b = 0; b < 6; ++b) {
+      const float x = u(rng), y = u(rng);
+      w.add_box(Box3{Eigen::Vector3f(x, y, 0.0f), Eigen::Vector3f(x + 0.6f, y + 0.4f, 2.0f)});
+    }
+    auto far = std::make_unique<FarFieldLayer>();
+    ASSERT_EQ(far->init(FarFieldConfig{}, 0.0f), Status::kOk);
+    if (world % 2 == 1) {  // a wall 3.5 m east of the origin, seen from 4 m behind it
+      test::WorldScene scene;
+      scene.boxes.push_back(
+          Box3{Eigen::Vector3f(3.5f, -3.0f, 0.0f), Eigen::Vector3f(3.7f, 3.0f, 2.5f)});
+      std::vector<std::uint16_t> pixels;
+      const Pose cam_pose = test::level_camera(Eigen::Vector3f(-1.5f, 0.0f, 1.3f), 0.0f);
+      const DepthView view = test::render(scene, far_camera(), cam_pose, pixels);
+      for (int f = 0; f < 5; ++f) {
+        ASSERT_EQ(far->update(view, far_camera(), cam_pose, nullptr, 0), Status::kOk);
+      }
+    }
+    for (std::size_t l : {9u, 5u, 8u}) {
+      MarkovPredictorConfig cfg;
+      cfg.paths.num_paths = l;
+      MarkovPredictor mp;
+      ASSERT_EQ(mp.init(cfg), Status::kOk);
+      const PathLibrary& lib = mp.library();
+      for (int k = 0; k < 10; ++k) {
+        const float heading = u(rng);
+        const float v = speed(rng);
+        const ObstacleState o = walker(static_cast<std::uint32_t>(k + 1), u(rng), u(rng),
+                                       v * std::cos(heading), v * std::sin(heading));
+        PathPrediction out;
+        ASSERT_EQ(mp.predict(&o, 1, w.query(), far.get(), &out), Status::kOk);
+        for (std::size_t i = 0; i < l; ++i) {
+          const float theta = lib.heading_change(i);
+          SweepSpan span;
+          for (std::size_t j = 0; j < l; ++j) {
+            const float tj = lib.heading_change(j);
+            if (tj != 0.0f && (tj > 0.0f) == (theta > 0.0f) && std::fabs(tj) <= std::fabs(theta)) {
+              span.breaks |= 1u << lib.turn_end_sample(j, v);
+            }
+          }
+          PathSamples path;
+          lib.sample(i, o.position.head<2>(), o.velocity, &path);
+          const PathClearance alone =
+              sweep_path(w.query(), path, o, cfg.clearance, far.get(), span);
+          EXPECT_EQ(out.free_distance[i], alone.free_distance) << "world " << world << " i " << i;
+          EXPECT_EQ(out.path_free(i), alone.free);
+          EXPECT_EQ((out.far_blocked_mask >> i) & 1u, alone.far_blocked ? 1u : 0u);
+          ++compared;
+          blocked += alone.free ? 0 : 1;
+          far_walls += alone.far_blocked ? 1 : 0;
+        }
+      }
+    }
+  }
+  EXPECT_GT(blocked, compared / 4);  // the worlds do block paths, on the arcs too
+  EXPECT_GT(far_walls, 0u);
 }
 
 }  // namespace

@@ -23,7 +23,7 @@ struct MarkovPredictorConfig {
   ClearanceConfig clearance{};
   /// Standard deviations, in radians of heading change (converted to path indices with the
   /// library's spacing 2*max_heading_change/(l-1)), so the chain behaves alike for any l.
-  /// The defaults are one path spacing for l = 5.
+  /// The defaults are one path spacing of the default library (45 degrees).
   float sigma_init = 0.7853982f;   ///< of P_init around the straight path
   float sigma_trans = 0.7853982f;  ///< of each P_trans row around its diagonal
   float beta = 2.0f;  ///< 1/m: P_env = softmax(beta * free distance); 0 ignores the map
@@ -99,6 +99,10 @@ class MarkovPredictor {
   // return P_env; update the track's belief with P_env and return the posterior; pick the path.
   Belief sweep_paths(const ObstacleState& obstacle, const OccupancyQuery& map,
                      const FarFieldLayer* far_field, PathPrediction* out) noexcept;
+  // Samples every path into paths_ and sweeps it, sharing each side's turning arc.
+  void sweep_library(const ObstacleState& obstacle, const OccupancyQuery& map,
+                     const FarFieldLayer* far_field,
+                     std::array<PathClearance, kMaxPaths>* clear) noexcept;
   Belief update_belief(std::uint32_t track_id, const Belief& env) noexcept;
   std::size_t choose_path(const Belief& post, const PathPrediction& out) const noexcept;
 

@@ -18,13 +18,16 @@ namespace dynamap {
 
 /// Shape and horizon of the candidate paths (docs/design.md §4.6).
 struct PathLibraryConfig {
-  std::size_t num_paths = 5;              ///< l, 1..kMaxPaths
-  float max_heading_change = 1.5707964f;  ///< rad, heading change of the outermost paths, [0, pi]
-  float turn_curvature = 1.0f;            ///< 1/m while turning (1 m radius: a walker's corner)
-  float horizon_distance = 3.0f;          ///< m of travel at the current speed ...
-  float slow_speed = 0.1f;                ///< m/s; ... unless slower than this, then
-  float slow_horizon_time = 2.0f;         ///< s of travel
-  float sample_interval = 0.1f;           ///< s, upper bound on the spacing of samples in time
+  /// l, 1..kMaxPaths. Nine paths 45 degrees apart, from a U-turn left to a U-turn right: a
+  /// walker facing a wall or a dead end turns back, and a library that stops at 90 degrees has
+  /// no free path for it.
+  std::size_t num_paths = 9;
+  float max_heading_change = 3.14159265f;  ///< rad, heading change of the outermost paths, [0, pi]
+  float turn_curvature = 1.0f;             ///< 1/m while turning (1 m radius: a walker's corner)
+  float horizon_distance = 3.0f;           ///< m of travel at the current speed ...
+  float slow_speed = 0.1f;                 ///< m/s; ... unless slower than this, then
+  float slow_horizon_time = 2.0f;          ///< s of travel
+  float sample_interval = 0.1f;            ///< s, upper bound on the spacing of samples in time
 };
 
 /// How far ahead one obstacle's paths reach: the same for every path of the library.
@@ -60,6 +63,10 @@ class PathLibrary {
 
   /// Horizon for an obstacle moving at `speed` m/s.
   PathHorizon horizon(float speed) const noexcept;
+
+  /// Last sample of path i, at `speed`, still on its turning arc (0 for the straight path). Paths
+  /// turning the same way have bit-identical samples up to the gentler one's turn end.
+  std::size_t turn_end_sample(std::size_t i, float speed) const noexcept;
 
   /// Samples path i in the velocity frame (x along the velocity, y to its left) for `speed`.
   void sample_local(std::size_t i, float speed, PathSamples* out) const noexcept;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 #include "dynamap/predict/path_library.hpp"
 #include "dynamap/predict/prediction.hpp"
@@ -20,7 +21,22 @@ struct PathClearance {
   float free_distance = 0.0f;  ///< m of arc length before the first hit; full length when free
   bool free = true;            ///< no occupied voxel met over the whole path
   bool far_blocked = false;    ///< the far-field layer met a wall before the map's first hit
+  std::size_t hit_chord = 0;   ///< first sample of the chord where the map's first hit lies
+  /// Arc length of the far-field layer's first wall within the map's free distance; infinity
+  /// when none (or no layer).
+  float far_distance = kInfDistance;
+  static constexpr float kInfDistance = 1e30f;
 };
+
+/// Which part of a path the map sweep covers. Paths that turn the same way share their arc up
+/// to where the gentler one goes straight (PathLibrary::turn_end_sample), so the Markov
+/// predictor sweeps that arc once: chords end at the shared samples (`breaks`) and a path whose
+/// shared part is known free is swept from `start` on.
+struct SweepSpan {
+  std::size_t start = 0;     ///< first sample swept; the part before it is free (not checked)
+  std::uint32_t breaks = 0;  ///< bit k set: no chord runs past sample k
+};
+static_assert(kMaxPathSamples <= 32, "SweepSpan::breaks holds one bit per sample");
 
 /// Sweeps the obstacle's footprint along `path` (map top view, from PathLibrary::sample) and
 /// returns the arc length travelled before the first occupied voxel. Work: at most
@@ -32,6 +48,18 @@ struct PathClearance {
 /// most samples x (2 radius / cell + 2) cell lookups.
 PathClearance sweep_path(const OccupancyQuery& map, const PathSamples& path,
                          const ObstacleState& obstacle, const ClearanceConfig& clearance,
-                         const FarFieldLayer* far_field = nullptr) noexcept;
+                         const FarFieldLayer* far_field = nullptr,
+                         const SweepSpan& span = SweepSpan{}) noexcept;
+
+/// The far-field part of sweep_path alone, on a map result already known (`map_result`: the
+/// map's free distance, free flag and hit chord for this path), looking at samples from
+/// `far_start` on (the ones before are known to hold no remembered wall).
+PathClearance add_far_field(const PathClearance& map_result, const PathSamples& path,
+                            const ObstacleState& obstacle, const ClearanceConfig& clearance,
+                            const FarFieldLayer* far_field, std::size_t far_start = 0) noexcept;
+
+/// Ends `result`'s free distance at a far-field wall `far_distance` along the path (as
+/// add_far_field does when it finds one there).
+void block_at_far_wall(float far_distance, PathClearance* result) noexcept;
 
 }  // namespace dynamap
