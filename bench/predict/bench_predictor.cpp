@@ -159,8 +159,8 @@ void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto
 
 // Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7),
 // far-field layer lookups (1 = default, 0 off; the layer's update is BM_FarFieldUpdate), the
-// outermost paths' heading change in degrees (180 = default; l = 5 to 90 was the default before
-// the U-turns, the same 45-degree spacing).
+// outermost paths' heading change in degrees (180 = default; l = 5 to 90 is the same 45-degree
+// spacing without the U-turns, the lighter library a tight prediction budget may choose).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
   MarkovPredictorConfig cfg;
