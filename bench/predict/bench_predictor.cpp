@@ -160,13 +160,15 @@ void count_work(benchmark::State& state, const Scene& sc, const Predictor& proto
 // Args: number of paths l, max clearance lines (9 = default 0.1 m spacing for r = 0.3 m -> 7),
 // far-field layer lookups (1 = default, 0 off; the layer's update is BM_FarFieldUpdate), the
 // outermost paths' heading change in degrees (180 = default; l = 5 to 90 is the same 45-degree
-// spacing without the U-turns, the lighter library a tight prediction budget may choose).
+// spacing without the U-turns, the lighter library a tight prediction budget may choose), and
+// turn_back_curvature in tenths of 1/m (0 off; it sweeps again only walkers with no free path).
 void BM_MarkovPredictor(benchmark::State& state) {
   const Scene& sc = scene();
   MarkovPredictorConfig cfg;
   cfg.paths.num_paths = static_cast<std::size_t>(state.range(0));
   cfg.paths.max_heading_change = static_cast<float>(state.range(3)) * 3.14159265f / 180.0f;
   cfg.clearance.max_lines = static_cast<std::size_t>(state.range(1));
+  cfg.turn_back_curvature = static_cast<float>(state.range(4)) / 10.0f;
   const FarFieldLayer* far = state.range(2) != 0 ? sc.far.get() : nullptr;
   auto mp = std::make_unique<MarkovPredictor>();
   if (!ok(mp->init(cfg))) {
@@ -193,14 +195,15 @@ void BM_MarkovPredictor(benchmark::State& state) {
   state.counters["occupied_voxels"] = static_cast<double>(sc.occupied_voxels);
 }
 BENCHMARK(BM_MarkovPredictor)
-    ->ArgNames({"l", "max_lines", "far", "deg"})
-    ->Args({9, 9, 1, 180})
-    ->Args({5, 9, 1, 90})
-    ->Args({7, 9, 1, 135})
-    ->Args({9, 9, 0, 180})
-    ->Args({15, 9, 1, 180})
-    ->Args({9, 3, 1, 180})
-    ->Args({15, 3, 1, 180})
+    ->ArgNames({"l", "max_lines", "far", "deg", "back"})
+    ->Args({9, 9, 1, 180, 30})
+    ->Args({9, 9, 1, 180, 0})
+    ->Args({5, 9, 1, 90, 30})
+    ->Args({7, 9, 1, 135, 30})
+    ->Args({9, 9, 0, 180, 30})
+    ->Args({15, 9, 1, 180, 30})
+    ->Args({9, 3, 1, 180, 30})
+    ->Args({15, 3, 1, 180, 30})
     ->Repetitions(5)
     ->ReportAggregatesOnly(true)
     ->Unit(benchmark::kMicrosecond);

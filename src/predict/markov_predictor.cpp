@@ -48,9 +48,16 @@ Status MarkovPredictor::init(const MarkovPredictorConfig& c) noexcept {
   if (!ok(validate(c.clearance)) || !all_in_range(c, params::kMarkovPredictor)) {
     return Status::kInvalidArgument;
   }
+  PathLibrary turn_back;
+  if (c.turn_back_curvature > 0.0f) {
+    PathLibraryConfig tight = c.paths;
+    tight.turn_curvature = c.turn_back_curvature;
+    if (!ok(turn_back.init(tight))) return Status::kInvalidArgument;
+  }
 
   config_ = c;
   library_ = lib;
+  turn_back_library_ = turn_back;
   const std::size_t l = library_.size();
   const double s_init = sigma_in_indices(c.sigma_init);
   const double s_trans = sigma_in_indices(c.sigma_trans);
@@ -140,6 +147,11 @@ MarkovPredictor::Belief MarkovPredictor::sweep_paths(const ObstacleState& obstac
   std::array<float, kMaxPaths> dist{};  // Dist_i of P_env
   std::array<PathClearance, kMaxPaths> clear{};
   sweep_library(obstacle, map, far_field, &clear);
+  bool any_free = false;
+  for (std::size_t i = 0; i < l; ++i) any_free = any_free || clear[i].free;
+  if (!any_free && config_.turn_back_curvature > 0.0f) {
+    retry_turning_back(obstacle, map, far_field, &clear);
+  }
   float max_dist = 0.0f;
   for (std::size_t i = 0; i < l; ++i) {
     const PathClearance& c = clear[i];
@@ -219,6 +231,26 @@ void MarkovPredictor::sweep_library(const ObstacleState& obstacle, const Occupan
         (*clear)[i] =
             add_far_field(own, paths_[i], obstacle, config_.clearance, far_field, turn_end[i] + 1);
       }
+    }
+  }
+}
+
+void MarkovPredictor::retry_turning_back(const ObstacleState& obstacle, const OccupancyQuery& map,
+                                         const FarFieldLayer* far_field,
+                                         std::array<PathClearance, kMaxPaths>* clear) noexcept {
+  // A quarter turn plus a hair, so float spacing never counts the 90-degree path as turning back.
+  constexpr float kQuarterTurn = 1.5717963f;
+  const Eigen::Vector2f origin = obstacle.position.head<2>();
+  const float speed = obstacle.velocity.norm();
+  for (std::size_t i = 0; i < library_.size(); ++i) {
+    if (std::fabs(library_.heading_change(i)) <= kQuarterTurn) continue;
+    turn_back_library_.sample(i, origin, obstacle.velocity, &turn_back_path_);
+    const std::size_t end = turn_back_library_.turn_end_sample(i, speed);
+    const PathClearance c = sweep_path(map, turn_back_path_, obstacle, config_.clearance, far_field,
+                                       SweepSpan{0, 1u << end});
+    if (c.free_distance > (*clear)[i].free_distance) {
+      (*clear)[i] = c;
+      paths_[i] = turn_back_path_;  // the chosen path's samples are written from paths_
     }
   }
 }

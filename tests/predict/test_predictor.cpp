@@ -526,6 +526,93 @@ TYPED_TEST(PredictorScenes, DeadEndGetsAUTurnWhereANinetyDegreeLibraryHasNoFreeP
   }
 }
 
+// The same walker in a dead end 2 m wide: a U-turn at the library's 1 m radius needs 2 m to
+// the side and meets the left wall, so nothing is free; at turn_back_curvature's radius (1/3 m)
+// it fits and leads back out. Off (0), the prediction fails as before.
+TYPED_TEST(PredictorScenes, NarrowDeadEndGetsAUTurnOnTheSpot) {
+  TypeParam w;
+  w.add_box(wall(1.6f, -1.1f, 1.7f, 1.1f));    // end wall
+  w.add_box(wall(-3.0f, -1.1f, 1.7f, -1.0f));  // right side
+  w.add_box(wall(-3.0f, 1.0f, 1.7f, 1.1f));    // left side
+  const ObstacleState o = walker(4, 0.0f, -0.5f, 1.0f, 0.0f);
+  MarkovPredictorConfig off;
+  off.turn_back_curvature = 0.0f;
+  MarkovPredictor wide;
+  ASSERT_EQ(wide.init(off), Status::kOk);
+  PathPrediction out;
+  ASSERT_EQ(wide.predict(&o, 1, w.query(), &out), Status::kOk);
+  EXPECT_FALSE(out.any_free);
+  EXPECT_TRUE(out.failed);
+  const MarkovPredictorConfig on;
+  const float radius = 1.0f / on.turn_back_curvature;
+  ASSERT_LT(radius, 0.6f);
+  MarkovPredictor mp;
+  ASSERT_EQ(mp.init(on), Status::kOk);
+  for (int f = 0; f < 3; ++f) {
+    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
+    expect_valid_distribution(out);
+    EXPECT_TRUE(out.any_free);
+    EXPECT_FALSE(out.failed);
+    EXPECT_GT(mp.library().heading_change(out.chosen), 3.0f) << "frame " << f;
+    float reach = -10.0f, side = -10.0f;
+    for (std::size_t k = 0; k < out.num_samples; ++k) {
+      reach = std::max(reach, out.position[k].x());
+      side = std::max(side, out.position[k].y());
+    }
+    EXPECT_NEAR(reach, radius, 0.02f);
+    EXPECT_NEAR(side, -0.5f + 2.0f * radius, 0.02f);
+    EXPECT_LT(out.position[out.num_samples - 1].x(), -1.0f);  // back the way it came
+  }
+}
+
+// Where any path is free at the library's radius, turn_back_curvature changes nothing: random
+// walkers among random boxes give bit-identical predictions with it on and off.
+TEST(MarkovPredictor, TurnBackCurvatureActsOnlyWhenNothingIsFree) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  std::uniform_real_distribution<float> speed(0.3f, 1.8f);
+  MarkovPredictorConfig off;
+  off.turn_back_curvature = 0.0f;
+  std::size_t identical = 0, retried = 0, rescued = 0;
+  for (int world = 0; world < 30; ++world) {
+    MapWorld w;
+    for (int b = 0; b < 10; ++b) {
+      const float x = u(rng), y = u(rng);
+      w.add_box(Box3{Eigen::Vector3f(x, y, 0.0f), Eigen::Vector3f(x + 1.0f, y + 0.3f, 2.0f)});
+    }
+    MarkovPredictor on_mp, off_mp;
+    ASSERT_EQ(on_mp.init(MarkovPredictorConfig{}), Status::kOk);
+    ASSERT_EQ(off_mp.init(off), Status::kOk);
+    for (int k = 0; k < 10; ++k) {
+      const float heading = u(rng), v = speed(rng);
+      const ObstacleState o = walker(static_cast<std::uint32_t>(k + 1), u(rng), u(rng),
+                                     v * std::cos(heading), v * std::sin(heading));
+      PathPrediction a, b;
+      ASSERT_EQ(on_mp.predict(&o, 1, w.query(), &a), Status::kOk);
+      ASSERT_EQ(off_mp.predict(&o, 1, w.query(), &b), Status::kOk);
+      if (b.any_free) {
+        EXPECT_EQ(a.chosen, b.chosen);
+        EXPECT_EQ(a.free_mask, b.free_mask);
+        for (std::size_t i = 0; i < a.num_paths; ++i) {
+          EXPECT_EQ(a.free_distance[i], b.free_distance[i]);
+          EXPECT_EQ(a.probability[i], b.probability[i]);
+        }
+        for (std::size_t s = 0; s < a.num_samples; ++s) EXPECT_EQ(a.position[s], b.position[s]);
+        ++identical;
+      } else {
+        ++retried;
+        rescued += a.any_free ? 1 : 0;
+        for (std::size_t i = 0; i < a.num_paths; ++i) {
+          EXPECT_GE(a.free_distance[i], b.free_distance[i]);  // the freer radius is kept
+        }
+      }
+    }
+  }
+  EXPECT_GT(identical, 100u);
+  EXPECT_GT(retried, 10u);  // the worlds do block every path sometimes
+  EXPECT_GT(rescued, 0u);
+}
+
 TYPED_TEST(PredictorScenes, ZeroHeapAllocations) {
   TypeParam w;
   build_wall_with_left_opening(w);
@@ -1150,6 +1237,7 @@ TEST(MarkovPredictor, SharedArcSweepEqualsSweepingEveryPathAlone) {
     for (std::size_t l : {9u, 5u, 8u}) {
       MarkovPredictorConfig cfg;
       cfg.paths.num_paths = l;
+      cfg.turn_back_curvature = 0.0f;  // compared with sweeps at the library's one radius
       MarkovPredictor mp;
       ASSERT_EQ(mp.init(cfg), Status::kOk);
       const PathLibrary& lib = mp.library();

@@ -40,6 +40,12 @@ struct MarkovPredictorConfig {
   /// (docs/predictor.md, "Choice"), and with nothing in the map to tell them apart it picked
   /// turns into walls it had not seen. Only the choice changes, not the belief.
   bool straight_when_free = true;
+  /// 1/m; 0 = off. When no path is free in the map and the far-field layer, the paths turning
+  /// back (more than 90 degrees) are swept again at this curvature (1/3 m radius: about a
+  /// body's) and keep whichever radius runs freer: a walker facing a wall or standing in a bay
+  /// turns on the spot, tighter than the library's corner radius. Tighter U-turns for every
+  /// walker lost where a wider turn was free (rooms, corridor corners), so only then.
+  float turn_back_curvature = 3.0f;
 };
 
 /// Slots of the per-track belief table (power of two, max load 7/8 >= kMaxTracks).
@@ -103,16 +109,22 @@ class MarkovPredictor {
   void sweep_library(const ObstacleState& obstacle, const OccupancyQuery& map,
                      const FarFieldLayer* far_field,
                      std::array<PathClearance, kMaxPaths>* clear) noexcept;
+  // With nothing free, sweeps the paths turning back again at turn_back_curvature.
+  void retry_turning_back(const ObstacleState& obstacle, const OccupancyQuery& map,
+                          const FarFieldLayer* far_field,
+                          std::array<PathClearance, kMaxPaths>* clear) noexcept;
   Belief update_belief(std::uint32_t track_id, const Belief& env) noexcept;
   std::size_t choose_path(const Belief& post, const PathPrediction& out) const noexcept;
 
   MarkovPredictorConfig config_{};
   PathLibrary library_{};
+  PathLibrary turn_back_library_{};  // library_ at turn_back_curvature (when it is on)
   bool initialised_ = false;
   Belief initial_{};
   std::array<Belief, kMaxPaths> trans_{};
   FixedHashMap<std::uint32_t, Belief, kPredictorTrackSlots> beliefs_{};
   std::array<PathSamples, kMaxPaths> paths_{};  // scratch: one obstacle's sampled paths
+  PathSamples turn_back_path_{};                // scratch: one path at turn_back_curvature
   std::uint64_t underflow_restarts_ = 0;
 };
 

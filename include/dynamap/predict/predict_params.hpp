@@ -55,6 +55,7 @@ inline constexpr Param<MarkovPredictorConfig> kMarkovPredictor[] = {
     {DYNAMAP_PARAM(MarkovPredictorConfig, beta), X, "1/m", 0, kInf, kClosed, kOpen, "P_env = softmax(beta x free distance); 0 ignores the map"},
     {DYNAMAP_PARAM(MarkovPredictorConfig, choose_free), X, "", 0, 1, kClosed, kClosed, "output the likeliest path that is free in the map"},
     {DYNAMAP_PARAM(MarkovPredictorConfig, straight_when_free), X, "", 0, 1, kClosed, kClosed, "output the straight path whenever it is free and no path is better supported"},
+    {DYNAMAP_PARAM(MarkovPredictorConfig, turn_back_curvature), X, "1/m", 0, kInf, kClosed, kOpen, "with no path free, paths turning back are tried again at this curvature (0: off)"},
     // clang-format on
 };
 static_assert(paths_unique(kMarkovPredictor));
