@@ -499,14 +499,41 @@ TYPED_TEST(PredictorScenes, LCorridorPicksTheMatchingTurn) {
   }
 }
 
+/// `count` boxes 2 m tall of top-view `size`, their corners drawn from u in x and y.
+template <class World>
+void add_random_boxes(World& w, std::mt19937& rng, std::uniform_real_distribution<float>& u,
+                      int count, const Eigen::Vector2f& size) {
+  for (int b = 0; b < count; ++b) {
+    const float x = u(rng), y = u(rng);
+    w.add_box(Box3{Eigen::Vector3f(x, y, 0.0f), Eigen::Vector3f(x + size.x(), y + size.y(), 2.0f)});
+  }
+}
+
+/// One prediction that must be a free turn to the left of more than min_heading (rad).
+void predict_turning_back(MarkovPredictor& mp, const ObstacleState& o, const OccupancyQuery& q,
+                          float min_heading, PathPrediction* out) {
+  ASSERT_EQ(mp.predict(&o, 1, q, out), Status::kOk);
+  expect_valid_distribution(*out);
+  EXPECT_TRUE(out->any_free);
+  EXPECT_FALSE(out->failed);
+  EXPECT_GT(mp.library().heading_change(out->chosen), min_heading);
+}
+
+/// A dead end open towards -x: side walls from x = -3 to the end wall at x = 1.6, their inner
+/// faces at y = right and y = left.
+template <class World>
+void add_dead_end(World& w, float right, float left) {
+  w.add_box(wall(1.6f, right - 0.1f, 1.7f, left + 0.1f));  // end wall
+  w.add_box(wall(-3.0f, right - 0.1f, 1.7f, right));
+  w.add_box(wall(-3.0f, left, 1.7f, left + 0.1f));
+}
+
 // A walker 1.6 m from the end wall of a 2.9 m wide dead end, 0.5 m from its right side: every
 // path up to 90 degrees meets a wall, so a library that ends there has no free path. The
 // default's turns past 90 degrees to the left lead back out.
 TYPED_TEST(PredictorScenes, DeadEndGetsAUTurnWhereANinetyDegreeLibraryHasNoFreePath) {
   TypeParam w;
-  w.add_box(wall(1.6f, -1.6f, 1.7f, 1.5f));    // end wall
-  w.add_box(wall(-3.0f, -1.6f, 1.7f, -1.5f));  // right side
-  w.add_box(wall(-3.0f, 1.4f, 1.7f, 1.5f));    // left side
+  add_dead_end(w, -1.5f, 1.4f);
   const ObstacleState o = walker(4, 0.0f, -1.0f, 1.0f, 0.0f);
   MarkovPredictor ninety;
   ASSERT_EQ(ninety.init(markov_config(5)), Status::kOk);
@@ -517,11 +544,7 @@ TYPED_TEST(PredictorScenes, DeadEndGetsAUTurnWhereANinetyDegreeLibraryHasNoFreeP
   MarkovPredictor mp;
   ASSERT_EQ(mp.init(MarkovPredictorConfig{}), Status::kOk);
   for (int f = 0; f < 3; ++f) {
-    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
-    expect_valid_distribution(out);
-    EXPECT_TRUE(out.any_free);
-    EXPECT_FALSE(out.failed);
-    EXPECT_GT(mp.library().heading_change(out.chosen), 2.0f) << "frame " << f;
+    predict_turning_back(mp, o, w.query(), 2.0f, &out);
     EXPECT_LT(out.position[out.num_samples - 1].x(), 0.5f);  // back the way it came
   }
 }
@@ -531,9 +554,7 @@ TYPED_TEST(PredictorScenes, DeadEndGetsAUTurnWhereANinetyDegreeLibraryHasNoFreeP
 // it fits and leads back out. Off (0), the prediction fails as before.
 TYPED_TEST(PredictorScenes, NarrowDeadEndGetsAUTurnOnTheSpot) {
   TypeParam w;
-  w.add_box(wall(1.6f, -1.1f, 1.7f, 1.1f));    // end wall
-  w.add_box(wall(-3.0f, -1.1f, 1.7f, -1.0f));  // right side
-  w.add_box(wall(-3.0f, 1.0f, 1.7f, 1.1f));    // left side
+  add_dead_end(w, -1.0f, 1.0f);
   const ObstacleState o = walker(4, 0.0f, -0.5f, 1.0f, 0.0f);
   MarkovPredictorConfig off;
   off.turn_back_curvature = 0.0f;
@@ -549,11 +570,7 @@ TYPED_TEST(PredictorScenes, NarrowDeadEndGetsAUTurnOnTheSpot) {
   MarkovPredictor mp;
   ASSERT_EQ(mp.init(on), Status::kOk);
   for (int f = 0; f < 3; ++f) {
-    ASSERT_EQ(mp.predict(&o, 1, w.query(), &out), Status::kOk);
-    expect_valid_distribution(out);
-    EXPECT_TRUE(out.any_free);
-    EXPECT_FALSE(out.failed);
-    EXPECT_GT(mp.library().heading_change(out.chosen), 3.0f) << "frame " << f;
+    predict_turning_back(mp, o, w.query(), 3.0f, &out);
     float reach = -10.0f, side = -10.0f;
     for (std::size_t k = 0; k < out.num_samples; ++k) {
       reach = std::max(reach, out.position[k].x());
@@ -576,10 +593,7 @@ TEST(MarkovPredictor, TurnBackCurvatureActsOnlyWhenNothingIsFree) {
   std::size_t identical = 0, retried = 0, rescued = 0;
   for (int world = 0; world < 30; ++world) {
     MapWorld w;
-    for (int b = 0; b < 10; ++b) {
-      const float x = u(rng), y = u(rng);
-      w.add_box(Box3{Eigen::Vector3f(x, y, 0.0f), Eigen::Vector3f(x + 1.0f, y + 0.3f, 2.0f)});
-    }
+    add_random_boxes(w, rng, u, 10, Eigen::Vector2f(1.0f, 0.3f));
     MarkovPredictor on_mp, off_mp;
     ASSERT_EQ(on_mp.init(MarkovPredictorConfig{}), Status::kOk);
     ASSERT_EQ(off_mp.init(off), Status::kOk);
@@ -1217,10 +1231,7 @@ TEST(MarkovPredictor, SharedArcSweepEqualsSweepingEveryPathAlone) {
   std::size_t compared = 0, blocked = 0, far_walls = 0;
   for (int world = 0; world < 20; ++world) {
     MapWorld w;
-    for (int b = 0; b < 6; ++b) {
-      const float x = u(rng), y = u(rng);
-      w.add_box(Box3{Eigen::Vector3f(x, y, 0.0f), Eigen::Vector3f(x + 0.6f, y + 0.4f, 2.0f)});
-    }
+    add_random_boxes(w, rng, u, 6, Eigen::Vector2f(0.6f, 0.4f));
     auto far = std::make_unique<FarFieldLayer>();
     ASSERT_EQ(far->init(FarFieldConfig{}, 0.0f), Status::kOk);
     if (world % 2 == 1) {  // a wall 3.5 m east of the origin, seen from 4 m behind it
