@@ -177,7 +177,11 @@ Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthVie
   const int stride = c.pixel_stride;
   std::fill(h.count.begin(), h.count.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
   std::fill(h.tall.begin(), h.tall.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
-  for (std::size_t b = 0; b < g.bins; ++b) h.sum[b].setZero();
+  for (std::size_t b = 0; b < g.bins; ++b) {
+    h.sum[b].setZero();
+    h.z_min[b] = std::numeric_limits<float>::infinity();
+    h.z_max[b] = -std::numeric_limits<float>::infinity();
+  }
   const float xn = (static_cast<float>(u) - camera.cx) * g.inv_fx;
   // Map-frame ray direction of pixel (u, v) with unit depth: col_dir + (v - cy) * row_step.
   const Eigen::Vector3f col_dir = g.R.col(0) * xn + g.R.col(2);
@@ -215,6 +219,8 @@ Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthVie
     if (h.count[b] < 0xFFFF) ++h.count[b];
     if (tall && h.tall[b] < 0xFFFF) ++h.tall[b];
     h.sum[b] += q;
+    h.z_min[b] = std::min(h.z_min[b], p.z());
+    h.z_max[b] = std::max(h.z_max[b], p.z());
   }
   return beyond;
 }
@@ -262,14 +268,25 @@ FarFieldLayer::ColumnSurfaces FarFieldLayer::find_surfaces(
     int total = 0;
     int tall = 0;
     Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+    float z_min = std::numeric_limits<float>::infinity();
+    float z_max = -std::numeric_limits<float>::infinity();
     for (std::size_t k = lo; k < end; ++k) {
       total += h.count[k];
       tall += h.tall[k];
       sum += h.sum[k];
+      z_min = std::min(z_min, h.z_min[k]);
+      z_max = std::max(z_max, h.z_max[k]);
     }
+    const Eigen::Vector2f centroid = sum / static_cast<float>(total);
+    // Returns at nearly one height are a horizontal surface seen edge-on (a ceiling within the
+    // band), whose noise bunches a few returns into one window: it ends the free ray, but it
+    // is no wall.
+    const float range = std::max((centroid - g.o2).norm(), bin);
+    const float rise = std::max(std::fabs(z_max - g.origin.z()), std::fabs(z_min - g.origin.z()));
+    const bool flat = z_max - z_min < c.min_rise_sigmas * sigma(range) * rise / range;
     const auto i = static_cast<std::size_t>(s.count++);
-    s.hit[i] = sum / static_cast<float>(total);
-    s.tall[i] = tall > 0;
+    s.hit[i] = centroid;
+    s.tall[i] = tall > 0 && !flat;
     // The far tail of this surface is not a second one.
     b = end + 2 * w;
   }

@@ -3,6 +3,7 @@
 // walkers leave no trail, free rays clear what moved, bad input changes nothing, no allocation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -52,7 +53,8 @@ void add_range_noise(std::vector<std::uint16_t>& pixels, float a, float b, std::
     if (p == 0) continue;
     const float d = 0.001f * static_cast<float>(p);
     const float noisy = d + (a + b * d * d) * n(rng);
-    p = static_cast<std::uint16_t>(std::lround(std::max(0.31f, noisy) * 1000.0f));
+    // Clamped to the format's range (a wrapped value would be a near return).
+    p = static_cast<std::uint16_t>(std::lround(std::clamp(noisy, 0.31f, 65.535f) * 1000.0f));
   }
 }
 
@@ -200,6 +202,86 @@ TEST(FarFieldLayer, WalkersLeaveNoTrailAndFreeRaysClearWhatMoved) {
   }
   EXPECT_FALSE(occupied_near(*layer, Eigen::Vector2f(7.0f, 0.0f), 0.5f));
   EXPECT_TRUE(occupied_near(*layer, Eigen::Vector2f(8.55f, 0.0f), 0.1f));
+}
+
+TEST(FarFieldLayer, WallSeenOnlyAboveABoxInFrontIsAWall) {
+  // A 2 m box 3.45 m away hides a 3 m wall at 5 m up to 2.29 m: only the wall's top is in view,
+  // as a corridor's wall is behind the boxes lining it. The band up to max_height (2.5 m) holds
+  // three or four sampled rows of it in every column, enough for a surface; a band ending at
+  // 2.4 m holds one or two.
+  const Pose pose = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.35f), 0.0f);
+  test::WorldScene scene;
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(3.45f, -3.0f, 0.0f), Eigen::Vector3f(3.95f, 3.0f, 2.0f)});
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(5.0f, -4.0f, 0.0f), Eigen::Vector3f(5.2f, 4.0f, 3.0f)});
+  std::vector<std::uint16_t> pixels;
+  const CameraIntrinsics cam = camera();
+  const DepthView view = test::render(scene, cam, pose, pixels);
+  auto layer = make_layer();
+  ASSERT_EQ(layer->update(view, cam, pose, nullptr, 0), Status::kOk);
+  int on_wall = 0;
+  for (float y = -1.5f; y <= 1.5f; y += 0.2f) on_wall += occupied_near(*layer, {5.05f, y}, 0.1f);
+  EXPECT_GE(on_wall, 14);  // of 16 rows
+}
+
+/// Walls the layer writes over `frames` frames of a flat ceiling `height` above the floor, seen
+/// from a level camera `camera_z` high, with range noise on every frame.
+std::size_t ceiling_hits(float height, float camera_z, const FarFieldConfig& config,
+                         int frames = 20) {
+  const Pose pose = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, camera_z), 0.0f);
+  test::WorldScene scene;
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(-1.0f, -8.0f, height), Eigen::Vector3f(14.0f, 8.0f, height + 0.1f)});
+  const CameraIntrinsics cam = camera();
+  auto layer = make_layer(config);
+  std::vector<std::uint16_t> pixels;
+  std::size_t hits = 0;
+  for (int f = 0; f < frames; ++f) {
+    const DepthView view = test::render(scene, cam, pose, pixels);
+    add_range_noise(pixels, 0.05f, 0.0042f, static_cast<std::uint32_t>(f + 1));
+    EXPECT_EQ(layer->update(view, cam, pose, nullptr, 0), Status::kOk);
+    hits += layer->last_hits();
+  }
+  return hits;
+}
+
+TEST(FarFieldLayer, ACeilingInTheHeightBandIsNoWall) {
+  // Seen edge-on, a ceiling's returns spread over the range bins, but the range noise bunches a
+  // few of them into one window now and then; at nearly one height, unlike a wall's, so they
+  // end the free ray but are written as no wall (min_rise_sigmas).
+  FarFieldConfig on;
+  on.enabled = true;
+  FarFieldConfig off = on;
+  off.min_rise_sigmas = 0.0f;
+  // A 2.5 m ceiling, at the band's top: no wall from a camera 1.0, 1.35 or 1.6 m high.
+  for (const float z : {1.0f, 1.35f, 1.6f}) {
+    EXPECT_EQ(ceiling_hits(2.5f, z, on), 0u) << "camera at " << z;
+  }
+  // Just inside the band, where most bunches pass the band's noise margin: a third or fewer
+  // of the walls without the flatness test are left.
+  std::size_t with_test = 0;
+  std::size_t without = 0;
+  for (const float z : {1.0f, 1.35f}) {
+    with_test += ceiling_hits(on.max_height - 0.05f, z, on);
+    without += ceiling_hits(on.max_height - 0.05f, z, off);
+  }
+  EXPECT_GT(without, 30u);
+  EXPECT_LE(3 * with_test, without) << with_test << " of " << without;
+
+  // A hanging panel (a vertical face at the same height) is a wall: the test can fail.
+  const Pose pose = test::level_camera(Eigen::Vector3f(0.0f, 0.0f, 1.35f), 0.0f);
+  test::WorldScene scene;
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(-1.0f, -8.0f, 2.5f), Eigen::Vector3f(14.0f, 8.0f, 2.6f)});
+  scene.boxes.push_back(
+      Box3{Eigen::Vector3f(6.0f, -1.0f, 2.1f), Eigen::Vector3f(6.1f, 1.0f, 2.5f)});
+  std::vector<std::uint16_t> pixels;
+  const CameraIntrinsics cam = camera();
+  auto layer = make_layer(on);
+  const DepthView view = test::render(scene, cam, pose, pixels);
+  ASSERT_EQ(layer->update(view, cam, pose, nullptr, 0), Status::kOk);
+  EXPECT_TRUE(occupied_near(*layer, Eigen::Vector2f(6.05f, 0.0f), 0.1f));
 }
 
 TEST(FarFieldLayer, ConfigAndBadInputAreRefusedAndChangeNothing) {

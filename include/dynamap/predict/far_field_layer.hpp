@@ -38,7 +38,7 @@ struct FarFieldConfig {
   float max_range = 9.0f;      ///< m, horizontal range of pixels used, (hit_min_range, 25]
   float hit_min_range = 4.5f;  ///< m: nearer surfaces are the map's; >= 0
   float min_height = 0.3f;     ///< m above ground_height: lower pixels are floor
-  float max_height = 2.4f;     ///< m above ground_height: higher pixels are ceiling (> min)
+  float max_height = 2.5f;     ///< m above ground_height: higher pixels are ceiling (> min)
   /// m above ground_height a surface must reach (some of its points) to be written as a wall:
   /// taller than a person, so untracked walkers leave no trail; in [min, max_height]. Lower
   /// surfaces (boxes) are left to the map; they still end the free ray.
@@ -46,7 +46,12 @@ struct FarFieldConfig {
   float noise_margin = 0.05f;       ///< m, sigma(d) = noise_margin + noise_quadratic * d^2, >= 0
   float noise_quadratic = 0.0042f;  ///< m per m^2, >= 0 (one sigma of a stereo camera)
   int pixel_stride = 4;             ///< sampled columns and rows, 1..16
-  int min_pixels = 3;       ///< pixels in one column's noise window to accept a surface, >= 1
+  int min_pixels = 3;  ///< pixels in one column's noise window to accept a surface, >= 1
+  /// A surface whose points span less than this many sigmas of the noise's vertical share
+  /// (sigma(d) |z - camera z| / d) in height is no wall (it still ends the free ray), >= 0: the
+  /// noise bunches a ceiling's returns, seen edge-on, into one window at nearly one height,
+  /// while a wall's come from rows pixel_stride apart.
+  float min_rise_sigmas = 2.5f;
   int hit_evidence = 3;     ///< added per frame a cell is hit, 1..100
   int free_evidence = 1;    ///< removed per frame a ray passes the cell, 0..100
   int max_evidence = 6;     ///< clamp, >= hit_evidence
@@ -170,6 +175,8 @@ class FarFieldLayer {
     std::array<std::uint16_t, kFarFieldMaxBins> count{};
     std::array<std::uint16_t, kFarFieldMaxBins> tall{};
     std::array<Eigen::Vector2f, kFarFieldMaxBins> sum{};
+    std::array<float, kFarFieldMaxBins> z_min{};  ///< lowest and highest point, for flatness
+    std::array<float, kFarFieldMaxBins> z_max{};
   };
   /// A column's first two surfaces (centroid, any point above wall_height) and, when it has
   /// none, the last point beyond max_range (NaN when none).

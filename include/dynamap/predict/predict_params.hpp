@@ -74,6 +74,7 @@ inline constexpr Param<FarFieldConfig> kFarField[] = {
     {DYNAMAP_PARAM(FarFieldConfig, noise_quadratic), X, "1/m", 0, kInf, kClosed, kOpen, "quadratic part of the range noise sigma(d)"},
     {DYNAMAP_PARAM(FarFieldConfig, pixel_stride), C, "px", 1, 16, kClosed, kClosed, "sampled columns and rows"},
     {DYNAMAP_PARAM(FarFieldConfig, min_pixels), X, "px", 1, kInf, kClosed, kOpen, "pixels in a column's noise window to accept a surface"},
+    {DYNAMAP_PARAM(FarFieldConfig, min_rise_sigmas), X, "", 0, kInf, kClosed, kOpen, "height a surface's returns must span, in sigmas of the noise's vertical share: flatter is a ceiling seen edge-on"},
     {DYNAMAP_PARAM(FarFieldConfig, hit_evidence), X, "", 1, 100, kClosed, kClosed, "added per frame a cell is hit"},
     {DYNAMAP_PARAM(FarFieldConfig, free_evidence), X, "", 0, 100, kClosed, kClosed, "removed per frame a ray passes a cell"},
     {DYNAMAP_PARAM(FarFieldConfig, max_evidence), X, "", 1, 127, kClosed, kClosed, "evidence clamp"},
