@@ -61,6 +61,15 @@ void FarFieldLayer::add_hit(const Eigen::Vector2f& p) noexcept {
   c->last_hit = frame_;
 }
 
+namespace {
+// A ray passing a cell takes this many frames off its low-surface count: the space was seen
+// empty, but a ray grazing a crate's cell from the next column must not undo a second of it.
+constexpr std::uint8_t kLowFree = 4;
+// Frames a low surface may go unseen in its cell and keep its count: a walker passing in front
+// of a crate hides it for a few tenths of a second (half a second at 30 Hz).
+constexpr std::uint8_t kLowGap = 15;
+}  // namespace
+
 void FarFieldLayer::add_free(const Eigen::Vector2f& from, const Eigen::Vector2f& to) noexcept {
   if (config_.free_evidence == 0) return;
   const Eigen::Vector2f d = to - from;
@@ -86,7 +95,21 @@ void FarFieldLayer::add_free(const Eigen::Vector2f& from, const Eigen::Vector2f&
     if (c == nullptr) continue;
     const int e = static_cast<int>(c->evidence) - config_.free_evidence;
     c->evidence = static_cast<std::int8_t>(std::max(e, -config_.max_evidence));
+    c->low_count = static_cast<std::uint8_t>(c->low_count > kLowFree ? c->low_count - kLowFree : 0);
   }
+}
+
+void FarFieldLayer::add_low_hit(const Eigen::Vector2f& p) noexcept {
+  Cell* c = cell_for_write(p);
+  if (c == nullptr) return;
+  const auto tick = static_cast<std::uint8_t>(frame_ & 0xFFu);
+  const auto since = static_cast<std::uint8_t>(tick - c->low_tick);
+  if (c->low_count > 0 && since == 0) return;  // once per frame
+  c->low_count = (c->low_count > 0 && since <= kLowGap)
+                     ? static_cast<std::uint8_t>(std::min(255, static_cast<int>(c->low_count) + 1))
+                     : std::uint8_t{1};
+  c->low_tick = tick;
+  c->last_hit = frame_;
 }
 
 namespace {
@@ -286,7 +309,7 @@ FarFieldLayer::ColumnSurfaces FarFieldLayer::find_surfaces(
     const bool flat = z_max - z_min < c.min_rise_sigmas * sigma(range) * rise / range;
     const auto i = static_cast<std::size_t>(s.count++);
     s.hit[i] = centroid;
-    s.tall[i] = tall > 0 && !flat;
+    s.kind[i] = flat ? SurfaceKind::kFlat : (tall > 0 ? SurfaceKind::kTall : SurfaceKind::kLow);
     // The far tail of this surface is not a second one.
     b = end + 2 * w;
   }
@@ -296,7 +319,7 @@ FarFieldLayer::ColumnSurfaces FarFieldLayer::find_surfaces(
 void FarFieldLayer::mark_column(const FrameGeometry& g, const ColumnSurfaces& s) noexcept {
   for (int i = 0; i < s.count; ++i) {
     const auto k = static_cast<std::size_t>(i);
-    mark_surface(g.o2, s.hit[k], i == 0, s.tall[k]);
+    mark_surface(g.o2, s.hit[k], i == 0, s.kind[k]);
   }
   if (s.count == 0 && std::isfinite(s.beyond.x())) {
     const Eigen::Vector2f ray = s.beyond - g.o2;
@@ -305,7 +328,7 @@ void FarFieldLayer::mark_column(const FrameGeometry& g, const ColumnSurfaces& s)
 }
 
 void FarFieldLayer::mark_surface(const Eigen::Vector2f& o2, const Eigen::Vector2f& hit, bool first,
-                                 bool tall) noexcept {
+                                 SurfaceKind kind) noexcept {
   const Eigen::Vector2f ray = hit - o2;
   const float range = ray.norm();
   if (first && range > 0.0f) {
@@ -313,11 +336,14 @@ void FarFieldLayer::mark_surface(const Eigen::Vector2f& o2, const Eigen::Vector2
     const float free_to = range - 0.5f * sigma(range) - config_.cell_size;
     if (free_to > 0.0f) add_free(o2, o2 + ray * (free_to / range));
   }
-  // Only a surface taller than a person is a wall: walkers the tracker has not (yet) got
-  // would otherwise leave remembered trails. Lower ones still end the free ray.
-  if (range >= config_.hit_min_range && tall) {
+  // A surface taller than a person is a wall at once; a lower one only once it stayed, so
+  // walkers the tracker has not (yet) got leave no remembered trail. Both end the free ray.
+  if (range < config_.hit_min_range) return;
+  if (kind == SurfaceKind::kTall) {
     add_hit(hit);
     ++last_hits_;
+  } else if (kind == SurfaceKind::kLow && config_.low_frames > 0) {
+    add_low_hit(hit);
   }
 }
 

@@ -204,6 +204,55 @@ TEST(FarFieldLayer, WalkersLeaveNoTrailAndFreeRaysClearWhatMoved) {
   EXPECT_TRUE(occupied_near(*layer, Eigen::Vector2f(8.55f, 0.0f), 0.1f));
 }
 
+TEST(FarFieldLayer, ALowCrateThatStaysIsAWallAWalkerGoingPastIsNot) {
+  // Lower than wall_height, a 1 m crate at 7 m is a wall only once seen in low_frames frames
+  // (short gaps allowed); an untracked walker's front moves on before any cell counts that long.
+  const CameraIntrinsics cam = camera();
+  std::vector<std::uint16_t> pixels;
+  test::WorldScene crate;
+  crate.boxes.push_back(
+      Box3{Eigen::Vector3f(7.0f, -0.5f, 0.0f), Eigen::Vector3f(8.0f, 0.5f, 1.0f)});
+  auto layer = make_layer();
+  const int frames = layer->config().low_frames;
+  ASSERT_GT(frames, 1);
+  // Seen for 20 frames, hidden for 12 by a tracked walker in front (its pixels excluded), then
+  // seen again: the count goes on through the gap.
+  std::vector<std::uint16_t> hidden_pixels;
+  test::WorldScene hidden = crate;
+  hidden.boxes.push_back(test::person_at(5.5f, 0.0f));
+  const FarFieldExclusion disc{Eigen::Vector2f(5.5f, 0.0f), 0.45f};
+  const DepthView seen = test::render(crate, cam, kLookingAtWall, pixels);
+  const DepthView behind = test::render(hidden, cam, kLookingAtWall, hidden_pixels);
+  int seen_frames = 0;
+  for (int f = 0; seen_frames < frames - 1; ++f) {
+    const bool hide = f >= 20 && f < 32;
+    ASSERT_EQ(layer->update(hide ? behind : seen, cam, kLookingAtWall, hide ? &disc : nullptr,
+                            hide ? 1 : 0),
+              Status::kOk);
+    seen_frames += hide ? 0 : 1;
+    ASSERT_FALSE(occupied_near(*layer, Eigen::Vector2f(7.1f, 0.0f), 0.2f)) << "frame " << f;
+  }
+  ASSERT_EQ(layer->update(seen, cam, kLookingAtWall, nullptr, 0), Status::kOk);
+  EXPECT_TRUE(occupied_near(*layer, Eigen::Vector2f(7.1f, 0.0f), 0.2f));
+  EXPECT_EQ(layer->last_hits(), 0u);  // never a tall wall
+
+  // A 1.7 m person 7 m away walking 2 m across and back at 0.5 m/s for 16 s, with no exclusion
+  // disc and nothing behind it to clear its cells: it comes back to a cell too late for the
+  // count to go on, so no wall anywhere.
+  auto fresh = make_layer();
+  for (int f = 0; f < 480; ++f) {
+    const float s_walked = std::fmod(0.5f * static_cast<float>(f) / 30.0f, 4.0f);
+    const float y = s_walked < 2.0f ? -1.0f + s_walked : 3.0f - s_walked;
+    test::WorldScene walker;
+    walker.boxes.push_back(test::person_at(7.0f, y));
+    const DepthView v = test::render(walker, cam, kLookingAtWall, pixels);
+    ASSERT_EQ(fresh->update(v, cam, kLookingAtWall, nullptr, 0), Status::kOk);
+    for (float yy = -2.6f; yy <= 2.6f; yy += 0.2f) {
+      ASSERT_FALSE(occupied_near(*fresh, Eigen::Vector2f(6.9f, yy), 0.3f)) << f << " " << yy;
+    }
+  }
+}
+
 TEST(FarFieldLayer, WallSeenOnlyAboveABoxInFrontIsAWall) {
   // A 2 m box 3.45 m away hides a 3 m wall at 5 m up to 2.29 m: only the wall's top is in view,
   // as a corridor's wall is behind the boxes lining it. The band up to max_height (2.5 m) holds

@@ -7,7 +7,8 @@
 // pixels never make a wall. Surfaces at least hit_min_range from the camera are written as hits
 // into a rolling 2-D grid, the space before the first surface as free. A cell is a wall while
 // its evidence is positive and it was hit within memory_frames: walls seen a moment ago and now
-// out of view still count. All state is inline; update() never allocates and does bounded work.
+// out of view still count. Surfaces lower than a person are walls only once they stayed in
+// their cell for low_frames. All state is inline; update() never allocates and does bounded work.
 #pragma once
 
 #include <array>
@@ -56,6 +57,11 @@ struct FarFieldConfig {
   int free_evidence = 1;    ///< removed per frame a ray passes the cell, 0..100
   int max_evidence = 6;     ///< clamp, >= hit_evidence
   int memory_frames = 150;  ///< a wall is forgotten this many frames after its last hit, >= 1
+  /// Frames a surface lower than wall_height must be seen in one cell (unseen for up to half a
+  /// second in between) before it is a wall too: a crate beyond the map's range stays, a
+  /// walker's front moves on (0.2 m in 0.4 s at 0.5 m/s). A ray passing the cell takes 4 frames
+  /// off the count. 0: low surfaces are never walls. [0, 255]
+  int low_frames = 30;
 };
 
 /// kInvalidArgument when a field is out of range or breaks a relation with another
@@ -97,7 +103,8 @@ class FarFieldLayer {
   /// this for every footprint point of every sample of every path.
   bool occupied(const Eigen::Vector2f& p) const noexcept {
     const Cell* c = initialised_ ? cell_for_read(p) : nullptr;
-    return c != nullptr && c->evidence > 0 &&
+    return c != nullptr &&
+           (c->evidence > 0 || (config_.low_frames > 0 && c->low_count >= config_.low_frames)) &&
            frame_ - c->last_hit <= static_cast<std::uint32_t>(config_.memory_frames);
   }
   /// Evidence of that cell (0 when never touched or overwritten by the rolling window).
@@ -117,6 +124,8 @@ class FarFieldLayer {
     std::uint32_t last_hit = 0;  ///< frame_ at the last hit
     std::int8_t evidence = 0;
     bool used = false;
+    std::uint8_t low_count = 0;  ///< frames a low surface was seen here in a row (see low_frames)
+    std::uint8_t low_tick = 0;   ///< frame_ (mod 256) of the last low hit
   };
   /// Cell coordinates are kept well inside int32 (and float's exact integers).
   static constexpr float kMaxCellCoord = 1.0e6f;
@@ -151,6 +160,7 @@ class FarFieldLayer {
     return static_cast<std::size_t>(sy) * kFarFieldCellsPerSide + sx;
   }
   void add_hit(const Eigen::Vector2f& p) noexcept;
+  void add_low_hit(const Eigen::Vector2f& p) noexcept;
   void add_free(const Eigen::Vector2f& from, const Eigen::Vector2f& to) noexcept;
   // update() in steps (far_field_layer.cpp).
   /// One frame's camera geometry, height band and exclusion discs, shared by its columns.
@@ -178,11 +188,17 @@ class FarFieldLayer {
     std::array<float, kFarFieldMaxBins> z_min{};  ///< lowest and highest point, for flatness
     std::array<float, kFarFieldMaxBins> z_max{};
   };
-  /// A column's first two surfaces (centroid, any point above wall_height) and, when it has
-  /// none, the last point beyond max_range (NaN when none).
+  /// What a surface is for the layer.
+  enum class SurfaceKind : std::uint8_t {
+    kFlat,  ///< returns at nearly one height (a ceiling seen edge-on): no wall
+    kLow,   ///< no point above wall_height: a wall only once it stayed (low_frames)
+    kTall,  ///< a wall
+  };
+  /// A column's first two surfaces (centroid, kind) and, when it has none, the last point beyond
+  /// max_range (NaN when none).
   struct ColumnSurfaces {
     std::array<Eigen::Vector2f, 2> hit{};
-    std::array<bool, 2> tall{};
+    std::array<SurfaceKind, 2> kind{};
     int count = 0;
     Eigen::Vector2f beyond = Eigen::Vector2f::Zero();
   };
@@ -203,7 +219,7 @@ class FarFieldLayer {
                                const Eigen::Vector2f& beyond) const noexcept;
   void mark_column(const FrameGeometry& g, const ColumnSurfaces& s) noexcept;
   void mark_surface(const Eigen::Vector2f& o2, const Eigen::Vector2f& hit, bool first,
-                    bool tall) noexcept;
+                    SurfaceKind kind) noexcept;
 
   FarFieldConfig config_{};
   float ground_height_ = 0.0f;

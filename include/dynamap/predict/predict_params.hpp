@@ -79,6 +79,7 @@ inline constexpr Param<FarFieldConfig> kFarField[] = {
     {DYNAMAP_PARAM(FarFieldConfig, free_evidence), X, "", 0, 100, kClosed, kClosed, "removed per frame a ray passes a cell"},
     {DYNAMAP_PARAM(FarFieldConfig, max_evidence), X, "", 1, 127, kClosed, kClosed, "evidence clamp"},
     {DYNAMAP_PARAM(FarFieldConfig, memory_frames), X, "frames", 1, kInf, kClosed, kOpen, "a wall is forgotten this many frames after its last hit"},
+    {DYNAMAP_PARAM(FarFieldConfig, low_frames), X, "frames", 0, 255, kClosed, kClosed, "frames a surface lower than wall_height must stay in one cell to be a wall (0: never)"},
     // clang-format on
 };
 static_assert(paths_unique(kFarField));
