@@ -200,11 +200,7 @@ Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthVie
   const int stride = c.pixel_stride;
   std::fill(h.count.begin(), h.count.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
   std::fill(h.tall.begin(), h.tall.begin() + static_cast<std::ptrdiff_t>(g.bins), 0);
-  for (std::size_t b = 0; b < g.bins; ++b) {
-    h.sum[b].setZero();
-    h.z_min[b] = std::numeric_limits<float>::infinity();
-    h.z_max[b] = -std::numeric_limits<float>::infinity();
-  }
+  for (std::size_t b = 0; b < g.bins; ++b) h.sum[b].setZero();
   const float xn = (static_cast<float>(u) - camera.cx) * g.inv_fx;
   // Map-frame ray direction of pixel (u, v) with unit depth: col_dir + (v - cy) * row_step.
   const Eigen::Vector3f col_dir = g.R.col(0) * xn + g.R.col(2);
@@ -239,11 +235,16 @@ Eigen::Vector2f FarFieldLayer::bin_column(const FrameGeometry& g, const DepthVie
       continue;
     }
     const std::size_t b = std::min(g.bins - 1, static_cast<std::size_t>(range / c.cell_size));
+    if (h.count[b] == 0) {
+      h.z_min[b] = p.z();
+      h.z_max[b] = p.z();
+    } else {
+      h.z_min[b] = std::min(h.z_min[b], p.z());
+      h.z_max[b] = std::max(h.z_max[b], p.z());
+    }
     if (h.count[b] < 0xFFFF) ++h.count[b];
     if (tall && h.tall[b] < 0xFFFF) ++h.tall[b];
     h.sum[b] += q;
-    h.z_min[b] = std::min(h.z_min[b], p.z());
-    h.z_max[b] = std::max(h.z_max[b], p.z());
   }
   return beyond;
 }
@@ -297,6 +298,7 @@ FarFieldLayer::ColumnSurfaces FarFieldLayer::find_surfaces(
       total += h.count[k];
       tall += h.tall[k];
       sum += h.sum[k];
+      if (h.count[k] == 0) continue;
       z_min = std::min(z_min, h.z_min[k]);
       z_max = std::max(z_max, h.z_max[k]);
     }

@@ -42,7 +42,7 @@ struct FarFieldConfig {
   float max_height = 2.5f;     ///< m above ground_height: higher pixels are ceiling (> min)
   /// m above ground_height a surface must reach (some of its points) to be written as a wall:
   /// taller than a person, so untracked walkers leave no trail; in [min, max_height]. Lower
-  /// surfaces (boxes) are left to the map; they still end the free ray.
+  /// surfaces end the free ray and are walls only once they stayed (low_frames).
   float wall_height = 2.0f;
   float noise_margin = 0.05f;       ///< m, sigma(d) = noise_margin + noise_quadratic * d^2, >= 0
   float noise_quadratic = 0.0042f;  ///< m per m^2, >= 0 (one sigma of a stereo camera)
@@ -124,9 +124,10 @@ class FarFieldLayer {
     std::uint32_t last_hit = 0;  ///< frame_ at the last hit
     std::int8_t evidence = 0;
     bool used = false;
-    std::uint8_t low_count = 0;  ///< frames a low surface was seen here in a row (see low_frames)
+    std::uint8_t low_count = 0;  ///< frames a low surface was seen here (see low_frames)
     std::uint8_t low_tick = 0;   ///< frame_ (mod 256) of the last low hit
   };
+  static_assert(sizeof(Cell) == 16, "docs/predictor.md: 16 bytes a cell");
   /// Cell coordinates are kept well inside int32 (and float's exact integers).
   static constexpr float kMaxCellCoord = 1.0e6f;
 
@@ -185,7 +186,8 @@ class FarFieldLayer {
     std::array<std::uint16_t, kFarFieldMaxBins> count{};
     std::array<std::uint16_t, kFarFieldMaxBins> tall{};
     std::array<Eigen::Vector2f, kFarFieldMaxBins> sum{};
-    std::array<float, kFarFieldMaxBins> z_min{};  ///< lowest and highest point, for flatness
+    /// Lowest and highest point, for flatness; valid only where count > 0 (not reset per column).
+    std::array<float, kFarFieldMaxBins> z_min{};
     std::array<float, kFarFieldMaxBins> z_max{};
   };
   /// What a surface is for the layer.
