@@ -22,6 +22,14 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
   } else if (!e.ever_free_overruled) {
     ++ever_free_streak_;
   }
+  if (e.view_bounded) {
+    if (ever_free_run(e, config)) {
+      mode_ = LabelMode::kDynamic;
+    } else if (mode_ == LabelMode::kCoasting) {
+      mode_ = voter_.dynamic() ? LabelMode::kDynamic : LabelMode::kStatic;
+    }
+    return;
+  }
   bool votes_say = false;
   if (e.voted) {
     voter_.push(e.dynamic_vote, continuity);

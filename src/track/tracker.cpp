@@ -14,6 +14,14 @@ namespace {
 /// three frames, long enough to average out a box's jitter, short enough to follow an emergence.
 constexpr float kGrowthSmoothing = 0.3f;
 
+/// A nearer detection whose image box comes this close (pixels) to a side of another's hides
+/// that side: the boxes of an occluder and the surface it cuts meet at the depth edge, where the
+/// sensor's edge dropouts leave a gap of a pixel or two.
+constexpr int kOccluderGapPixels = 3;
+/// ... and lies at least this much nearer (m): a walker beside a wall, not in front of it, is
+/// at about the wall's depth.
+constexpr float kOccluderDepthGap = 0.2f;
+
 float seconds_between(Stamp earlier, Stamp later) noexcept {
   return static_cast<float>(static_cast<double>(later - earlier) * 1e-9);
 }
@@ -164,8 +172,8 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   }
 }
 
-void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
-                            Stamp stamp) noexcept {
+void Tracker::correct_track(Track& t, const Detection& det, bool own_edge,
+                            const Eigen::Vector3f& camera, Stamp stamp) noexcept {
   const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr);
   const Eigen::Vector2f xy = m.center.head<2>();
   // A step of the frozen size (just set or raised) changes how the detection is turned into a
@@ -206,7 +214,7 @@ void Tracker::correct_track(Track& t, const Detection& det, const Eigen::Vector3
   t.out.missed_frames = 0;
   ++t.out.hits;
   t.out.last_seen = stamp;
-  t.label.measured(evidence(t, det), config_.continuity, config_.label);
+  t.label.measured(evidence(t, det, own_edge), config_.continuity, config_.label);
   t.dormant = false;
 }
 
@@ -261,7 +269,7 @@ void Tracker::ever_free_evidence(const Detection& det, LabelEvidence* e) const n
       e->in_ever_free && config_.static_overrules_ever_free && on_static_structure(det);
 }
 
-LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
+LabelEvidence Tracker::evidence(Track& t, const Detection& det, bool own_edge) const noexcept {
   LabelEvidence e;
   ever_free_evidence(det, &e);
   e.plausible_size = plausible_size(t.size);
@@ -287,6 +295,11 @@ LabelEvidence Tracker::evidence(Track& t, const Detection& det) const noexcept {
   const bool first_vote = t.label.voter().votes() == 0;
   e.voted = rigid || !moving || !config_.abstain_when_not_rigid || !first_vote;
   e.dynamic_vote = rigid;
+  if (config_.vote_needs_own_edge && !own_edge) {
+    e.view_bounded = true;  // the box shows the view and the occluders, not the object
+    e.voted = false;
+    e.dynamic_vote = false;
+  }
   return e;
 }
 
@@ -311,6 +324,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
   const Eigen::Vector3f camera = T_map_camera.translation;
   predict_tracks(stamp);
   for (std::size_t i = 0; i < count; ++i) frame_.meas[i] = measure(dets[i], camera, nullptr);
+  mark_own_edges(dets, count);
   frame_.det_used.fill(false);
   frame_.track_used.fill(false);
   associate(count);
@@ -319,7 +333,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     if (frame_.det_used[pr.det] || frame_.track_used[pr.slot]) continue;
     frame_.det_used[pr.det] = true;
     frame_.track_used[pr.slot] = true;
-    correct_track(tracks_[pr.slot], dets[pr.det], camera, stamp);
+    correct_track(tracks_[pr.slot], dets[pr.det], frame_.meas[pr.det].own_edge, camera, stamp);
     tracks_[pr.slot].out.detection = pr.det;
     tracks_[pr.slot].out.cut = !frame_.meas[pr.det].in_view;
   }
@@ -330,6 +344,31 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
   if (frames_processed_ < std::numeric_limits<std::size_t>::max()) ++frames_processed_;
   publish();
   return Status::kOk;
+}
+
+void Tracker::mark_own_edges(const Detection* dets, std::size_t count) noexcept {
+  const int m = config_.image_margin;
+  for (std::size_t i = 0; i < count; ++i) {
+    const ImageBox& a = dets[i].image_box;
+    frame_.meas[i].own_edge = true;
+    if (a.u1 < a.u0 || a.v1 < a.v0) continue;  // no image box: nothing to judge by
+    bool left_apparent = a.u0 < m;
+    bool right_apparent = a.u1 > image_width_ - 1 - m;
+    for (std::size_t j = 0; j < count && !(left_apparent && right_apparent); ++j) {
+      const ImageBox& b = dets[j].image_box;
+      if (j == i || b.u1 < b.u0) continue;
+      if (dets[j].near_depth > dets[i].near_depth - kOccluderDepthGap) continue;
+      // Beside half of the rows or more: a crate's top next to a walker's legs leaves the edge
+      // of the body above it in view.
+      const int rows = std::min(a.v1, b.v1) - std::max(a.v0, b.v0) + 1;
+      if (2 * rows < a.v1 - a.v0 + 1) continue;
+      // An occluder ending within the box hides one side; one spanning the whole width (a
+      // crate in front of a walker's legs) hides neither.
+      if (b.u0 < a.u0 && b.u1 >= a.u0 - kOccluderGapPixels && b.u1 < a.u1) left_apparent = true;
+      if (b.u1 > a.u1 && b.u0 <= a.u1 + kOccluderGapPixels && b.u0 > a.u0) right_apparent = true;
+    }
+    frame_.meas[i].own_edge = !(left_apparent && right_apparent);
+  }
 }
 
 void Tracker::predict_tracks(Stamp stamp) noexcept {

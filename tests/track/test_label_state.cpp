@@ -114,6 +114,38 @@ TEST_F(LabelStateTest, EarlyRunLabelsDynamic) {
   EXPECT_EQ(s.dynamic_streak(), 4u);
 }
 
+LabelEvidence view_bounded() {
+  LabelEvidence e;
+  e.view_bounded = true;
+  return e;
+}
+
+// A frame whose box the view and the occluders bound carries no evidence: an early label and
+// its run stay as they were, where an abstention (no history, not rigid) ends the run.
+TEST_F(LabelStateTest, ViewBoundedFramesNeitherEndNorExtendTheEarlyRun) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(vote(true), 4);
+  ASSERT_EQ(s.mode(), LabelMode::kDynamic);
+  measure(view_bounded(), 10);
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  EXPECT_EQ(s.dynamic_streak(), 4u);
+  EXPECT_EQ(s.voter().votes(), 4u);
+  measure(vote(true));
+  EXPECT_EQ(s.dynamic_streak(), 5u);
+  measure(no_vote(false));  // an abstention ends the run: the window (5 of T_c) says static
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+}
+
+TEST_F(LabelStateTest, ViewBoundedFramesDoNotStartALabel) {
+  lc.early_votes = 4;
+  s.start(no_vote(false), lc);
+  measure(vote(true), 3);
+  measure(view_bounded(), 5);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  EXPECT_EQ(s.dynamic_streak(), 3u);
+}
+
 TEST_F(LabelStateTest, EarlyRunNeedsEveryVoteDynamicOnceTheWindowIsFull) {
   lc.early_votes = 4;
   s.start(no_vote(false), lc);

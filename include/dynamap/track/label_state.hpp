@@ -88,6 +88,10 @@ struct LabelEvidence {
   bool slow = false;           ///< the filtered speed is below continuity.min_speed
   std::size_t run_frame = 0;   ///< frames the tracker processed before this (read at start())
   float near_depth = 0.f;      ///< camera depth of the detection's nearest surface (m)
+  /// The detection's sides are the image border and nearer detections, not the object's own:
+  /// its box moves with the view and the occluders. No vote, and the runs and the label stay as
+  /// they were (neither extended nor ended).
+  bool view_bounded = false;
 };
 
 /// The states of LabelState: why a track carries its label.

@@ -108,6 +108,7 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, correct_near_surface_bias), X, "", 0, 1, kClosed, kClosed, "move box centres back by half their missing depth"},
     {DYNAMAP_PARAM(TrackerConfig, max_extent_change_ratio), X, "", -kInf, kInf, kOpen, kOpen, "rigid-motion test of the vote (negative: off)"},
     {DYNAMAP_PARAM(TrackerConfig, abstain_when_not_rigid), X, "", 0, 1, kClosed, kClosed, "before a track's first vote, a frame failing only the rigid-motion test casts no vote (not a static one)"},
+    {DYNAMAP_PARAM(TrackerConfig, vote_needs_own_edge), X, "", 0, 1, kClosed, kClosed, "a detection whose left and right image edges are both the border or a nearer detection casts no vote"},
     {DYNAMAP_PARAM(TrackerConfig, max_round_footprint), X, "m", 0, kInf, kClosed, kOpen, "bias correction only for footprints up to this long (0: no limit)"},
     {DYNAMAP_PARAM(TrackerConfig, early_displacement_frames), X, "frames", 0, kMaxTrackHistory, kClosed, kClosed, "displacement span of the early votes (0: no early votes)"},
     {DYNAMAP_PARAM(TrackerConfig, size_fix_growth), X, "", 0, 1, kClosed, kClosed, "raise a frozen size to a larger window mean"},

@@ -77,6 +77,12 @@ struct TrackerConfig {
   /// label waits for T_c of c votes (a second); without, the early label can follow. Once a
   /// track has voted, such frames vote static (a wall piece that passed a vote).
   bool abstain_when_not_rigid = true;
+  /// A frame votes only when its detection shows one of the object's own sides: a detection
+  /// whose left and right image edges are both apparent, each cut by the image border or next to
+  /// a nearer detection, is a piece of something whose visible part the view and the occluders
+  /// decide (a wall between a walker and the border, a crate top under the image's bottom edge),
+  /// and its box moves with them. Such a frame casts no vote, as before a track's first vote.
+  bool vote_needs_own_edge = true;
   /// The round-footprint bias correction is applied only when the box's longer horizontal side
   /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
   /// visible face's centre is kept. 0 disables the limit.
@@ -228,18 +234,19 @@ class Tracker {
   void predict_tracks(Stamp stamp) noexcept;
   void associate(std::size_t count) noexcept;
   void coast_unmatched() noexcept;
+  void mark_own_edges(const Detection* dets, std::size_t count) noexcept;
   void start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept;
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
                       const Eigen::Vector3f* fixed_size) const noexcept;
   bool fully_in_view(const ImageBox& b) const noexcept;
   bool moves_rigidly(const Track& t) const noexcept;
   void start_track(Track& t, const Measurement& m, Stamp stamp) noexcept;
-  void correct_track(Track& t, const Detection& det, const Eigen::Vector3f& camera,
+  void correct_track(Track& t, const Detection& det, bool own_edge, const Eigen::Vector3f& camera,
                      Stamp stamp) noexcept;
   // The steps of correct_track after the filter update: size estimate (freeze, growth) and
   // the evidence for the label (the continuity filter's vote among it).
   void update_size(Track& t, const Measurement& m) noexcept;
-  LabelEvidence evidence(Track& t, const Detection& det) const noexcept;
+  LabelEvidence evidence(Track& t, const Detection& det, bool own_edge) const noexcept;
   void ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept;
   bool plausible_size(const Eigen::Vector3f& size) const noexcept;
   /// Most of the detection's voxels long occupied (static share above max_static_share).

@@ -22,6 +22,9 @@ struct TrackMeasurement {
   bool in_view;
   bool near_enough;  // near enough for size fixing
   bool on_static;    // on long-occupied voxels (static share above max_static_share)
+  // A side of its image box is the object's own (not the border, not an occluder); set for
+  // every detection of the frame by Tracker::mark_own_edges.
+  bool own_edge = true;
 };
 /// A candidate (detection, track) association.
 struct TrackPair {
