@@ -347,6 +347,7 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
 }
 
 void Tracker::mark_own_edges(const Detection* dets, std::size_t count) noexcept {
+  if (!config_.vote_needs_own_edge) return;  // measure() left every own_edge true
   const int m = config_.image_margin;
   for (std::size_t i = 0; i < count; ++i) {
     const ImageBox& a = dets[i].image_box;

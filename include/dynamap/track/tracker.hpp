@@ -78,10 +78,11 @@ struct TrackerConfig {
   /// track has voted, such frames vote static (a wall piece that passed a vote).
   bool abstain_when_not_rigid = true;
   /// A frame votes only when its detection shows one of the object's own sides: a detection
-  /// whose left and right image edges are both apparent, each cut by the image border or next to
-  /// a nearer detection, is a piece of something whose visible part the view and the occluders
-  /// decide (a wall between a walker and the border, a crate top under the image's bottom edge),
-  /// and its box moves with them. Such a frame casts no vote, as before a track's first vote.
+  /// whose left and right image edges are both apparent, each at the image border or next to a
+  /// nearer detection, is a piece of something whose visible part the view and the occluders
+  /// decide (a crate face between a walker and the border, a far wall between two pillars), and
+  /// its box moves with them. Such a frame casts no vote and leaves the label as it was
+  /// (LabelEvidence::view_bounded; docs/tracker.md).
   bool vote_needs_own_edge = true;
   /// The round-footprint bias correction is applied only when the box's longer horizontal side
   /// is at most this long (m): a longer box is a wall piece or a group, not round, and its
