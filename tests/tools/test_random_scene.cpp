@@ -101,6 +101,13 @@ TEST(RandomScene, DrawnWorldsAreSound) {
         ASSERT_GE(distance_to_static(s.world, p), w.radius + Limits::walker_static - 1e-6)
             << "seed " << seed << " walker " << k + 1 << " t " << t;
         ASSERT_LE((p - last).norm(), 1.1 * Limits::max_speed * 0.02) << "seed " << seed;
+        // Nobody walking alone reverses at walking pace within a frame: a turn back slows to a
+        // stop first. (A group's inner member in a turn tighter than its place in the group
+        // still steps back: timing by the outer member's pace, docs/tools.md.)
+        const Eigen::Vector2d v0 = motions[k].velocity(t), v1 = motions[k].velocity(t + 1 / 30.0);
+        if (w.group == 0 && v0.norm() > 0.3 && v1.norm() > 0.3) {
+          ASSERT_GT(v0.dot(v1), 0.0) << "seed " << seed << " walker " << k + 1 << " t " << t;
+        }
         last = p;
       }
       grouped += w.group > 0;

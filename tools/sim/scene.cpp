@@ -89,7 +89,36 @@ DensePath smooth_path(const std::vector<Eigen::Vector2d>& w, bool closed, double
 
 namespace {
 constexpr double kWalkerAccel = 1.0;  // m/s^2 into and out of pauses
+// A corner turning the heading by more than this is a turn back: the walker slows to a stop and
+// walks off again (at kWalkerAccel) instead of reversing at cruise speed within a frame, which
+// no person does (1.2 m/s reversed in 1/30 s is 72 m/s^2).
+constexpr double kTurnBackHeading = 2.0;  // rad (115 deg)
+
+// True at each waypoint of a closed loop whose heading change exceeds kTurnBackHeading,
+// measured between the nearest waypoints at least kTurnBackReach away on either side (two
+// waypoints a few centimetres apart turn back between them).
+constexpr double kTurnBackReach = 0.5;  // m
+std::vector<bool> turn_backs(const std::vector<Waypoint>& w) {
+  const std::size_t n = w.size();
+  std::vector<bool> out(n, false);
+  if (n < 2) return out;
+  const auto reach = [&](std::size_t i, std::size_t step) {
+    std::size_t j = i;
+    for (std::size_t k = 1; k < n; ++k) {
+      j = (j + step) % n;
+      if ((w[j].p - w[i].p).norm() >= kTurnBackReach) return j;
+    }
+    return i;
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d in = w[i].p - w[reach(i, n - 1)].p, on = w[reach(i, 1)].p - w[i].p;
+    if (in.norm() < 1e-9 || on.norm() < 1e-9) continue;
+    const double c = std::clamp(in.normalized().dot(on.normalized()), -1.0, 1.0);
+    out[i] = std::acos(c) > kTurnBackHeading;
+  }
+  return out;
 }
+}  // namespace
 
 namespace {
 
@@ -143,12 +172,15 @@ WalkerMotion::WalkerMotion(const WalkerSpec& spec) : spec_(spec) {
     L = pace_.back();
   }
   loop_pace_ = L;
-  // Legs run between pause points; without pauses the whole loop is one leg at cruise speed.
+  // Legs run between pause points and turn backs (a stop without a pause); without either the
+  // whole loop is one leg at cruise speed.
+  const std::vector<bool> turns_back = turn_backs(spec.waypoints);
   std::vector<std::size_t> pauses;
   for (std::size_t i = 0; i < spec.waypoints.size(); ++i) {
-    if (spec.waypoints[i].pause > 0.0) pauses.push_back(i);
+    if (spec.waypoints[i].pause > 0.0 || turns_back[i]) pauses.push_back(i);
   }
-  if (pauses.empty()) {
+  endless_ = pauses.empty();
+  if (endless_) {
     legs_.push_back(Leg{0.0, L, L / spec.speed, 0.0});
   } else {
     for (std::size_t k = 0; k < pauses.size(); ++k) {
@@ -166,7 +198,7 @@ WalkerMotion::WalkerMotion(const WalkerSpec& spec) : spec_(spec) {
 }
 
 double WalkerMotion::leg_distance(const Leg& leg, double tau) const {
-  if (legs_.size() == 1 && leg.pause == 0.0) return spec_.speed * tau;  // endless loop
+  if (endless_) return spec_.speed * tau;  // a loop without stops
   const double a = kWalkerAccel;
   const double v = std::min(spec_.speed, std::sqrt(leg.length * a));
   const double t_acc = v / a;

@@ -34,9 +34,10 @@ struct Waypoint {
 };
 
 /// A person walking a closed loop of waypoints (corners rounded) at `speed`, accelerating at
-/// 1 m/s^2 into and out of pauses. Shape: upright cylinder (radius, height) standing on the floor.
-/// People walking side by side share one loop (the group's centre line) and keep a lateral place
-/// in it; the group turns at the pace of its outer member, so nobody walks faster than `speed`.
+/// 1 m/s^2 into and out of pauses and turn backs (corners turning it by more than 115 deg). Shape:
+/// upright cylinder (radius, height) standing on the floor. People walking side by side share one
+/// loop (the group's centre line) and keep a lateral place in it; the group turns at the pace of
+/// its outer member, so nobody walks faster than `speed`.
 struct WalkerSpec {
   std::vector<Waypoint> waypoints;
   double speed = 1.0;  ///< cruise speed, 0.5-1.5 m/s
@@ -73,6 +74,7 @@ class WalkerMotion {
   std::vector<Eigen::Vector2d> normals_;  // left normal at each path point (groups only)
   double loop_pace_ = 0.0;
   std::vector<Leg> legs_;
+  bool endless_ = false;  // no pause and no turn back: one leg at cruise speed
   double period_ = 0.0;
 };
 
