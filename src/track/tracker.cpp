@@ -267,7 +267,17 @@ void Tracker::update_size(Track& t, const Measurement& m) noexcept {
 void Tracker::ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept {
   e->in_ever_free = det.ever_free >= config_.ever_free_share;
   e->ever_free_overruled =
-      e->in_ever_free && config_.static_overrules_ever_free && on_static_structure(det);
+      e->in_ever_free &&
+      ((config_.static_overrules_ever_free && on_static_structure(det)) || border_sliver(det));
+}
+
+bool Tracker::border_sliver(const Detection& det) const noexcept {
+  const ImageBox& b = det.image_box;
+  if (config_.ever_free_min_cut_extent <= 0.f || b.u1 < b.u0) return false;
+  const int m = config_.image_margin;
+  const bool side_cut = b.u0 < m || b.u1 > image_width_ - 1 - m;
+  const Eigen::Vector3f size = det.raw_box.size();
+  return side_cut && std::hypot(size.x(), size.y()) < config_.ever_free_min_cut_extent;
 }
 
 LabelEvidence Tracker::evidence(Track& t, const Detection& det, bool own_edge) const noexcept {

@@ -588,6 +588,48 @@ TEST(TrackerLabels, EverFreeShareOnLongOccupiedVoxelsIsNoEvidence) {
   }
 }
 
+// Suite seeds 10 and 23: a standing child and a box corner, 2-15 cm of them showing at the
+// right image border of a turning camera, on cells the rays beside them had seen empty while
+// they stood just beyond the border. Such a sliver is no ever-free evidence: it stays static.
+// The same share on a body 0.5 m wide at the border still labels it, and so does the sliver
+// with the rule off. A walker labelled in full view keeps its label as it leaves the view.
+TEST(TrackerLabels, EverFreeShareOfASliverAtTheBorderIsNoEvidence) {
+  constexpr ImageBox kRightBorder{600, 150, 639, 400};  // touches the right image border
+  for (const float min_extent : {0.2f, 0.f}) {
+    for (const float width : {0.1f, 0.5f}) {
+      TrackerConfig cfg;
+      cfg.ever_free_min_cut_extent = min_extent;
+      auto tracker = make_tracker(cfg);
+      int dynamic_frames = 0;
+      for (int f = 0; f < 30; ++f) {
+        Detection d =
+            detection(Eigen::Vector3f(1.6f, -0.8f, 0.66f), {0.05f, width, 1.3f}, kRightBorder);
+        d.ever_free = 0.6f;
+        ASSERT_EQ(tracker->update(&d, 1, camera_at(), kFrame * (f + 1)), Status::kOk);
+        ASSERT_EQ(tracker->size(), 1u);
+        dynamic_frames += tracker->obstacle(0).dynamic ? 1 : 0;
+      }
+      if (min_extent > 0.f && width < min_extent) {
+        EXPECT_EQ(dynamic_frames, 0) << width;
+      } else {
+        EXPECT_GE(dynamic_frames, 25) << min_extent << " " << width;
+      }
+    }
+  }
+  auto tracker = make_tracker();
+  for (int f = 0; f < 40; ++f) {
+    const bool leaving = f >= 30;
+    Detection d = detection(Eigen::Vector3f(1.6f, -0.8f, 0.66f),
+                            {0.05f, leaving ? 0.1f : 0.5f, 1.3f}, leaving ? kRightBorder : kInView);
+    d.ever_free = 0.6f;
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), kFrame * (f + 1)), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    if (f >= 2) {
+      EXPECT_TRUE(tracker->obstacle(0).dynamic) << "frame " << f;
+    }
+  }
+}
+
 TEST(TrackerRobustness, EverFreeShareOutOfRangeIsRefused) {
   for (float bad : {0.f, 1.5f, std::numeric_limits<float>::quiet_NaN()}) {
     TrackerConfig c;

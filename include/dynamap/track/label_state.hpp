@@ -80,9 +80,10 @@ struct LabelEvidence {
   bool voted = false;         ///< a vote: history long enough, not a rigid-test abstention
   bool dynamic_vote = false;  ///< and the frame voted dynamic (ContinuityFilter and the tracker)
   bool in_ever_free = false;  ///< the detection lay in ever-free space
-  /// In ever-free space but on long-occupied voxels (static evidence): the frame neither extends
-  /// nor ends the ever-free run, so a run cannot start on static structure and a walker's run is
-  /// not broken by one frame beside a wall.
+  /// In ever-free space but on long-occupied voxels (static evidence), or a sliver at the image
+  /// border (TrackerConfig::ever_free_min_cut_extent): the frame neither extends nor ends the
+  /// ever-free run, so a run cannot start on static structure or in the cells along the view's
+  /// sides, and a walker's run is not broken by one frame beside a wall or by leaving the view.
   bool ever_free_overruled = false;
   bool plausible_size = true;  ///< the track's size passes the size check (or the check is off)
   bool slow = false;           ///< the filtered speed is below continuity.min_speed

@@ -140,6 +140,14 @@ struct TrackerConfig {
   /// map for seconds was labelled dynamic by its ever-free run. A walker's body arrives on
   /// voxels that were free a moment ago; one frame of it beside a wall does not end its run.
   bool static_overrules_ever_free = true;
+  /// A detection cut by the left or right image border whose horizontal extent is below this
+  /// (m) neither extends nor ends an ever-free run (0: off). The ever-free cells along the
+  /// view's sides were partly outside it: while an object stood just beyond the border, the
+  /// rays beside it saw the in-view part of its cells empty. A sliver narrower than one
+  /// ever-free cell (ever_free.resolution, 0.2 m) lies wholly in such cells, so their evidence
+  /// says nothing about it: a standing child and a box corner at the border of a turning camera
+  /// were labelled dynamic by it. A walker leaving the view keeps its run.
+  float ever_free_min_cut_extent = 0.2f;
 
   /// kInvalidArgument for out-of-range values or broken relations (nested configs included;
   /// params::kTrackerRelations, track_params.hpp).
@@ -249,6 +257,8 @@ class Tracker {
   void update_size(Track& t, const Measurement& m) noexcept;
   LabelEvidence evidence(Track& t, const Detection& det, bool own_edge) const noexcept;
   void ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept;
+  /// Cut by the left or right border and narrower than config_.ever_free_min_cut_extent.
+  bool border_sliver(const Detection& det) const noexcept;
   bool plausible_size(const Eigen::Vector3f& size) const noexcept;
   /// Most of the detection's voxels long occupied (static share above max_static_share).
   bool on_static_structure(const Detection& det) const noexcept {
