@@ -202,6 +202,17 @@ TEST(MapScore, MapFramesCsvMaximaAndBadRows) {
   EXPECT_EQ(r.free_through_all_max, 7u);
   EXPECT_EQ(r.free_through_final, 1u);
   EXPECT_EQ(r.free_through_final_all, 7u);
+  EXPECT_FALSE(r.bare_available);  // a file from before the bare columns still scores
+  write_file(dir / "bare.csv",
+             "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
+             "erased_obstacle_voxels_all,free_through_obstacle_voxels_all,"
+             "erased_obstacle_voxels_bare,erased_obstacle_voxels_bare_all\n"
+             "1.0,3,0,4,6,2,3\n2.0,1,1,2,7,0,1\n");
+  eval::MapAccuracy with_bare;
+  eval::read_map_frames(dir / "bare.csv", with_bare);
+  EXPECT_TRUE(with_bare.bare_available);
+  EXPECT_EQ(with_bare.erased_bare_max, 2u);
+  EXPECT_EQ(with_bare.erased_bare_all_max, 3u);
   write_file(dir / "bad.csv",
              "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
              "erased_obstacle_voxels_all,free_through_obstacle_voxels_all\n1.0,0,x,1,5\n");
@@ -241,11 +252,42 @@ TEST(MapFrameChecks, OccupiedThenFreeBoxVoxelIsErasedAndFreeThrough) {
   EXPECT_EQ(n.free_through_near, 0u);
   EXPECT_EQ(n.erased_all, 1u);
   EXPECT_EQ(n.free_through_all, 2u);
+  // A's neighbours are unknown or free: where A was, the surface is gone (bare).
+  EXPECT_EQ(n.erased_bare_all, 1u);
   // Frame 4: A occupied again: no longer erased nor free.
   ASSERT_EQ(map->set_log_odds(a, 2.0f), Status::kOk);
   n = checker.check(*map, camera, 3.f);
   EXPECT_EQ(n.erased_all, 0u);
   EXPECT_EQ(n.free_through_all, 1u);
+  EXPECT_EQ(n.erased_bare_all, 0u);
+}
+
+// An erased voxel beside a held one thins the surface; with no held voxel among its 26
+// neighbours it is bare. Same box; B is A's diagonal neighbour (1, 1, 1 voxel away).
+TEST(MapFrameChecks, ErasedVoxelIsBareOnlyWithNoOccupiedNeighbour) {
+  StaticWorld w;
+  w.boxes.push_back(StaticBox{Eigen::Vector3d(1.0, 0.0, 0.5), Eigen::Vector3d(1.2, 0.2, 0.7)});
+  auto map = std::make_unique<OccupancyMap>();
+  ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
+  MapFrameChecker checker(w, *map);
+  const Eigen::Vector3f camera(0.f, 0.f, 0.6f), far_camera(10.f, 0.f, 0.6f);
+  const Eigen::Vector3f a(1.05f, 0.05f, 0.55f), b(1.15f, 0.15f, 0.65f);
+  ASSERT_EQ(map->set_log_odds(a, 2.0f), Status::kOk);
+  ASSERT_EQ(map->set_log_odds(b, 2.0f), Status::kOk);
+  (void)checker.check(*map, camera, 3.f);
+  ASSERT_EQ(map->set_log_odds(a, -2.0f), Status::kOk);  // A erased, B still held
+  MapFrameChecker::Counts n = checker.check(*map, camera, 3.f);
+  EXPECT_EQ(n.erased_near, 1u);
+  EXPECT_EQ(n.erased_bare_near, 0u);
+  EXPECT_EQ(n.erased_bare_all, 0u);
+  ASSERT_EQ(map->set_log_odds(b, -2.0f), Status::kOk);  // both erased: both bare
+  n = checker.check(*map, camera, 3.f);
+  EXPECT_EQ(n.erased_near, 2u);
+  EXPECT_EQ(n.erased_bare_near, 2u);
+  EXPECT_EQ(n.erased_bare_all, 2u);
+  n = checker.check(*map, far_camera, 3.f);  // the near count follows the camera
+  EXPECT_EQ(n.erased_bare_near, 0u);
+  EXPECT_EQ(n.erased_bare_all, 2u);
 }
 
 // dynamap-replay --static-model on a hand-made map: the model's voxels (a PLY as dynamap-label

@@ -161,6 +161,20 @@ MapFrameChecker::MapFrameChecker(const StaticWorld& world, const OccupancyMap& m
   for (const auto& v : truth.surface) surface_.push_back(on_map_grid(v));
   for (const auto& v : truth.interior) interior_.push_back(on_map_grid(v));
   held_.assign(surface_.size(), 0);
+  resolution_ = map.resolution();
+}
+
+bool MapFrameChecker::has_occupied_neighbour(const OccupancyMap& map,
+                                             const Eigen::Vector3f& centre) const {
+  for (int dx = -1; dx <= 1; ++dx)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dz = -1; dz <= 1; ++dz) {
+        if (dx == 0 && dy == 0 && dz == 0) continue;
+        const Eigen::Vector3f step(static_cast<float>(dx), static_cast<float>(dy),
+                                   static_cast<float>(dz));
+        if (map.state(centre + resolution_ * step) == Occupancy::kOccupied) return true;
+      }
+  return false;
 }
 
 MapFrameChecker::Counts MapFrameChecker::check(const OccupancyMap& map,
@@ -172,8 +186,12 @@ MapFrameChecker::Counts MapFrameChecker::check(const OccupancyMap& map,
     if (s == Occupancy::kOccupied) {
       held_[i] = 1;
     } else if (s == Occupancy::kFree && held_[i] != 0) {
+      const bool near = (surface_[i] - camera).squaredNorm() <= r2;
       ++n.erased_all;
-      if ((surface_[i] - camera).squaredNorm() <= r2) ++n.erased_near;
+      if (near) ++n.erased_near;
+      if (has_occupied_neighbour(map, surface_[i])) continue;
+      ++n.erased_bare_all;
+      if (near) ++n.erased_bare_near;
     }
   }
   for (const Eigen::Vector3f& c : interior_) {

@@ -48,6 +48,9 @@ bool near_static_shape(const StaticWorld& world, const Eigen::Vector3i& v, doubl
 /// erased obstacle = a surface voxel the map held occupied at some earlier check and now holds
 /// free; free through obstacle = an interior voxel the map holds free. Each is counted within
 /// `near_radius` of the camera (3-D distance to the voxel centre) and over the whole world.
+/// An erased voxel is *bare* when none of its 26 neighbours is held occupied either: there the
+/// surface is gone, not thinned by a voxel (a planner inflating obstacles by a voxel or more
+/// still sees a thinned surface).
 class MapFrameChecker {
  public:
   /// The truth voxels on `map`'s grid (its resolution; centres through key_of / center_of).
@@ -56,6 +59,7 @@ class MapFrameChecker {
   struct Counts {
     std::size_t erased_near = 0, free_through_near = 0;
     std::size_t erased_all = 0, free_through_all = 0;
+    std::size_t erased_bare_near = 0, erased_bare_all = 0;
   };
   /// Reads the map only (const queries); remembers which surface voxels are held occupied now.
   Counts check(const OccupancyMap& map, const Eigen::Vector3f& camera, float near_radius);
@@ -64,7 +68,10 @@ class MapFrameChecker {
   std::size_t interior_voxels() const { return interior_.size(); }
 
  private:
+  bool has_occupied_neighbour(const OccupancyMap& map, const Eigen::Vector3f& centre) const;
+
   std::vector<Eigen::Vector3f> surface_, interior_;
+  float resolution_ = 0.f;
   std::vector<std::uint8_t> held_;  ///< surface voxel held occupied at some check so far
 };
 

@@ -209,15 +209,31 @@ void read_map_frames(const std::string& path, MapAccuracy& r) {
     if (it == header.end()) fail_at(TextLocation{path, 1}, "no column '" + n + "'");
     col.push_back(static_cast<std::size_t>(it - header.begin()));
   }
+  // The bare counts came later: a file without them still scores, without that figure.
+  const std::vector<std::string> bare_names = {"erased_obstacle_voxels_bare",
+                                               "erased_obstacle_voxels_bare_all"};
+  std::vector<std::size_t> bare_col;
+  for (const std::string& n : bare_names) {
+    const auto it = std::find(header.begin(), header.end(), n);
+    if (it != header.end()) bare_col.push_back(static_cast<std::size_t>(it - header.begin()));
+  }
+  r.bare_available = bare_col.size() == bare_names.size();
+  auto count_at = [&](const std::vector<std::string>& f, std::size_t c, const std::string& name,
+                      const TextLocation& at) {
+    const long long x = parse_int(f[c], at, name.c_str());
+    if (x < 0) fail_at(at, "negative count in '" + name + "'");
+    return static_cast<std::size_t>(x);
+  };
   std::vector<std::size_t> v(names.size());
   for (std::size_t i = 1; i < lines.size(); ++i) {
     const TextLocation at{path, i + 1};
     const auto f = split_csv(lines[i]);
     if (f.size() < header.size()) fail_at(at, "too few columns");
-    for (std::size_t k = 0; k < names.size(); ++k) {
-      const long long x = parse_int(f[col[k]], at, names[k].c_str());
-      if (x < 0) fail_at(at, "negative count in '" + names[k] + "'");
-      v[k] = static_cast<std::size_t>(x);
+    for (std::size_t k = 0; k < names.size(); ++k) v[k] = count_at(f, col[k], names[k], at);
+    if (r.bare_available) {
+      r.erased_bare_max = std::max(r.erased_bare_max, count_at(f, bare_col[0], bare_names[0], at));
+      r.erased_bare_all_max =
+          std::max(r.erased_bare_all_max, count_at(f, bare_col[1], bare_names[1], at));
     }
     r.erased_max = std::max(r.erased_max, v[0]);
     r.free_through_max = std::max(r.free_through_max, v[1]);
@@ -312,6 +328,10 @@ std::string format_map_table(const MapAccuracy& r) {
     row("erased obstacle max", std::to_string(r.erased_max),
         "voxels within 3 m, worst of " + std::to_string(r.checked_frames) + " frames (all range " +
             std::to_string(r.erased_all_max) + ")");
+    if (r.bare_available)
+      row("  of them bare, max", std::to_string(r.erased_bare_max),
+          "no occupied voxel among the 26 neighbours (all range " +
+              std::to_string(r.erased_bare_all_max) + ")");
     row("free through obst. max", std::to_string(r.free_through_max),
         "voxels within 3 m (all range " + std::to_string(r.free_through_all_max) + ")");
     row("free through obst. final", std::to_string(r.free_through_final),

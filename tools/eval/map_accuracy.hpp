@@ -48,6 +48,9 @@ struct MapAccuracy {
   std::size_t erased_max = 0, free_through_max = 0;  ///< within 3 m of the camera
   std::size_t erased_all_max = 0, free_through_all_max = 0;
   std::size_t free_through_final = 0, free_through_final_all = 0;
+  /// Erased voxels with no occupied neighbour (columns absent in older files: not available).
+  bool bare_available = false;
+  std::size_t erased_bare_max = 0, erased_bare_all_max = 0;
   std::string settings;  ///< where the sampling and range settings came from
 };
 

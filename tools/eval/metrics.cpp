@@ -484,6 +484,9 @@ std::string map_json(const MapAccuracy& m) {
   auto frames = [&](std::size_t v) {
     return m.frames_available ? std::to_string(v) : std::string("null");
   };
+  auto bare = [&](std::size_t v) {
+    return m.frames_available && m.bare_available ? std::to_string(v) : std::string("null");
+  };
   o << "  \"sa\": " << json_num(m.sa) << ",\n"
     << "  \"sa_strict\": " << json_num(m.sa_strict) << ",\n"
     << "  \"sa_shapes\": " << json_num(m.sa_shapes) << ",\n"
@@ -493,6 +496,8 @@ std::string map_json(const MapAccuracy& m) {
     << "  \"erased_max\": " << frames(m.erased_max) << ",\n"
     << "  \"free_through_max\": " << frames(m.free_through_max) << ",\n"
     << "  \"erased_all_max\": " << frames(m.erased_all_max) << ",\n"
+    << "  \"erased_bare_max\": " << bare(m.erased_bare_max) << ",\n"
+    << "  \"erased_bare_all_max\": " << bare(m.erased_bare_all_max) << ",\n"
     << "  \"free_through_all_max\": " << frames(m.free_through_all_max) << ",\n"
     << "  \"free_through_final\": " << frames(m.free_through_final) << ",\n"
     << "  \"map\": {\"static_observed\": " << m.static_observed

@@ -34,6 +34,8 @@ const Metric kMetrics[] = {
     {"precision", "precision", true},
     {"sa", "SA (static accuracy of the map)", true},
     {"da", "DA (dynamic accuracy of the map)", true},
+    // Erased static surface with no occupied voxel beside it: where the surface is gone.
+    {"erased_bare_max", "erased obstacle voxels, bare, within 3 m (worst frame)", false},
     {"position_error_m", "position error (m)", false},
     {"velocity_error_mps", "velocity error (m/s)", false},
     {"prediction_failure_ratio", "prediction failure ratio, Markov", false},
@@ -50,6 +52,13 @@ const Metric kMetrics[] = {
 };
 constexpr std::size_t kCount = sizeof(kMetrics) / sizeof(kMetrics[0]);
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Where a metric sits in kMetrics (the derived ones are filled in by key, not by position).
+std::size_t metric_index(const std::string& key) {
+  for (std::size_t k = 0; k < kCount; ++k)
+    if (key == kMetrics[k].key) return k;
+  throw ToolError("no metric '" + key + "'");
+}
 
 struct Seed {
   std::string name;  // seed_N
@@ -108,9 +117,10 @@ Seed read_seed(const std::string& root, const std::string& name) {
   const std::string out = join_path(root, name + "_out");
   const std::string text = read_text(join_path(out, "metrics.json"));
   for (std::size_t k = 0; k < kCount; ++k) s.v[k] = json_value(text, kMetrics[k].key);
-  const double markov = s.v[6], linear = s.v[7];
-  s.v[8] = linear > 0.0 ? markov / linear : kNaN;
-  s.v[9] = frame_p99_ms(join_path(out, "timing.csv"));
+  const double markov = s.v[metric_index("prediction_failure_ratio")];
+  const double linear = s.v[metric_index("linear_failure_ratio")];
+  s.v[metric_index("failure_vs_linear")] = linear > 0.0 ? markov / linear : kNaN;
+  s.v[metric_index("frame_p99_ms")] = frame_p99_ms(join_path(out, "timing.csv"));
   const std::string readme = join_path(join_path(root, name), "README.md");
   if (file_exists(readme)) {
     const std::vector<std::string> lines = read_lines(readme);

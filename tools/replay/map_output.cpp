@@ -75,7 +75,8 @@ MapFrameLog::MapFrameLog(const StaticWorld& world, const OccupancyMap& map,
   csv_.open(path_);
   if (!csv_) throw ToolError(path_ + ": cannot open for writing");
   csv_ << "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,erased_obstacle_voxels_all,"
-          "free_through_obstacle_voxels_all\n";
+          "free_through_obstacle_voxels_all,erased_obstacle_voxels_bare,"
+          "erased_obstacle_voxels_bare_all\n";
 }
 
 void MapFrameLog::record(const OccupancyMap& map, const std::string& stamp_text,
@@ -88,8 +89,11 @@ void MapFrameLog::record(const OccupancyMap& map, const std::string& stamp_text,
   max_.free_through_near = std::max(max_.free_through_near, n.free_through_near);
   max_.erased_all = std::max(max_.erased_all, n.erased_all);
   max_.free_through_all = std::max(max_.free_through_all, n.free_through_all);
+  max_.erased_bare_near = std::max(max_.erased_bare_near, n.erased_bare_near);
+  max_.erased_bare_all = std::max(max_.erased_bare_all, n.erased_bare_all);
   csv_ << stamp_text << "," << n.erased_near << "," << n.free_through_near << "," << n.erased_all
-       << "," << n.free_through_all << "\n";
+       << "," << n.free_through_all << "," << n.erased_bare_near << "," << n.erased_bare_all
+       << "\n";
   if (!csv_) throw ToolError(path_ + ": write error");
 }
 
@@ -97,11 +101,12 @@ std::string MapFrameLog::summary() const {
   char buf[512];
   std::snprintf(buf, sizeof(buf),
                 "map checks: %zu surface + %zu interior truth voxels, worst frame within %.0f m: "
-                "%zu erased obstacle, %zu free through obstacle voxels (all range %zu, %zu); "
+                "%zu erased obstacle (%zu bare), %zu free through obstacle voxels (all range %zu, "
+                "%zu); "
                 "added time %.3f ms/frame (+%.1f ms setup)",
                 checker_.surface_voxels(), checker_.interior_voxels(),
-                static_cast<double>(kMapCheckNearRadius), max_.erased_near, max_.free_through_near,
-                max_.erased_all, max_.free_through_all,
+                static_cast<double>(kMapCheckNearRadius), max_.erased_near, max_.erased_bare_near,
+                max_.free_through_near, max_.erased_all, max_.free_through_all,
                 frames_ > 0 ? 1e3 * seconds_ / static_cast<double>(frames_) : 0.0,
                 1e3 * setup_seconds_);
   return buf;
