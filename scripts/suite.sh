@@ -5,7 +5,7 @@
 # distribution with the five worst seeds per metric (dynamap-suite-table; also ROOT/suite.md).
 #
 #   scripts/suite.sh N [--first S] [--seeds "A B C"] [--out DIR] [--frames F] [--jobs J]
-#                      [--bin DIR] [--reuse] [--min KEY=V]... [--max KEY=V]...
+#                      [--bin DIR] [--reuse] [--params FILE] [--min KEY=V]... [--max KEY=V]...
 #
 # Seeds S .. S+N-1 (default S = 1), or the N seeds listed by --seeds; output in DIR (default
 # out/suite): DIR/seed_K (sequence, README.md with every draw), DIR/seed_K_out (replay,
@@ -13,14 +13,15 @@
 # --frames F: frames per seed (default: dynamap-sim random's 450, 15 s). --bin DIR: the tools'
 # directory (default: build the release preset and use build/release/tools). --reuse: keep a
 # seed's sequence already rendered in DIR (same seed and frames), e.g. to re-measure a library
-# change without the render, which is most of the time. --min / --max:
+# change without the render, which is most of the time. --params FILE: parameters for every
+# replay (dynamap-replay --params; e.g. one setting against the defaults). --min / --max:
 # bounds every seed must keep (the smoke test's floors); exit 1 when one does not.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 usage() { sed -n '7,8p' "$0" | sed 's/^# *//' >&2; exit 2; }
 [ $# -ge 1 ] || usage
 N=$1; shift
-FIRST=1 SEEDS="" ROOT=out/suite FRAMES="" JOBS=2 BIN="" REUSE=0 BOUNDS=()
+FIRST=1 SEEDS="" ROOT=out/suite FRAMES="" JOBS=2 BIN="" REUSE=0 PARAMS="" BOUNDS=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --first) FIRST=$2; shift 2 ;;
@@ -30,6 +31,7 @@ while [ $# -gt 0 ]; do
     --jobs) JOBS=$2; shift 2 ;;
     --bin) BIN=$2; shift 2 ;;
     --reuse) REUSE=1; shift ;;
+    --params) PARAMS=$(realpath "$2"); shift 2 ;;
     --min|--max) BOUNDS+=("$1" "$2"); shift 2 ;;
     *) usage ;;
   esac
@@ -62,7 +64,8 @@ run_seed() {
       { echo "seed $k FAILED (render; $log)"; return 1; }
     echo "$want" >"$seq/.frames"
   fi
-  if "$BIN/dynamap-replay" "$seq" --out "$out" --quiet --cpu-clock >>"$log" 2>&1 &&
+  if "$BIN/dynamap-replay" "$seq" --out "$out" --quiet --cpu-clock ${PARAMS:+--params "$PARAMS"} \
+       >>"$log" 2>&1 &&
      "$BIN/dynamap-eval" "$seq" "$out" --picture --map >>"$log" 2>&1 &&
      "$BIN/dynamap-overlay" "$seq" "$out" --out "$out/overlay" --every 45 --quiet >>"$log" 2>&1
   then
