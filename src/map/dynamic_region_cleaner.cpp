@@ -5,8 +5,10 @@
 namespace dynamap {
 
 Status DynamicRegionCleanerConfig::validate() const noexcept {
-  return all_in_range(*this, params::kDynamicRegionCleaner) ? Status::kOk
-                                                            : Status::kInvalidArgument;
+  return all_in_range(*this, params::kDynamicRegionCleaner) &&
+                 all_hold(*this, params::kDynamicRegionCleanerRelations)
+             ? Status::kOk
+             : Status::kInvalidArgument;
 }
 
 }  // namespace dynamap

@@ -209,6 +209,7 @@ DYNAMAP_RELATIONS(DetectorRelations, Detector, params::kUMapDetectorRelations);
 DYNAMAP_RELATIONS(ContinuityRelations, Continuity, params::kContinuityRelations);
 DYNAMAP_RELATIONS(TrackerRelations, Tracker, params::kTrackerRelations);
 DYNAMAP_RELATIONS(FarFieldRelations, FarField, params::kFarFieldRelations);
+DYNAMAP_RELATIONS(CleanerRelations, Cleaner, params::kDynamicRegionCleanerRelations);
 
 #undef DYNAMAP_RELATIONS
 
@@ -240,8 +241,9 @@ constexpr std::array<Relation<PipelineConfig>, (S::count + ...)> assemble_relati
   return all;
 }
 
-constexpr auto kRelations = assemble_relations<MapRelations, DetectorRelations, ContinuityRelations,
-                                               TrackerRelations, FarFieldRelations>();
+constexpr auto kRelations =
+    assemble_relations<MapRelations, DetectorRelations, ContinuityRelations, TrackerRelations,
+                       FarFieldRelations, CleanerRelations>();
 
 // A relation names a field of the table (its YAML key), so the error points at something the
 // user can set.

@@ -182,6 +182,33 @@ TEST(DynamicRegionCleaner, NothingIsClearedBeforeTheWalkerIsDynamic) {
   EXPECT_EQ(s.cleaner.last_stats().dynamic_tracks, 1u);
 }
 
+// A label that has held for fewer than min_dynamic_frames frames clears nothing; once it has
+// held that long, the boxes from before (still in the history) are cleared too.
+TEST(DynamicRegionCleaner, ALabelClearsOnlyOnceItHasHeld) {
+  Scene s;
+  DynamicRegionCleanerConfig config;
+  config.min_dynamic_frames = 5;
+  s.init(config);
+  std::vector<OccupancyMap::VoxelKey> walker;
+  int f = 0;
+  while (s.cleaner.last_stats().dynamic_tracks == 0 && f < 60) s.step(f++, &walker);
+  ASSERT_LT(f, 60) << "the walker was never labelled";
+  // The label's first frames: counted, waiting, nothing freed.
+  for (std::size_t held = 1; held < config.min_dynamic_frames; ++held) {
+    EXPECT_EQ(s.cleaner.last_stats().tracks_waiting, 1u) << "label frame " << held;
+    EXPECT_EQ(s.cleaner.last_stats().voxels_freed, 0u) << "label frame " << held;
+    EXPECT_EQ(s.history->size(), 0u) << "label frame " << held;
+    s.step(f++, &walker);
+  }
+  // Held long enough: the current box and older ones are cleared.
+  EXPECT_EQ(s.cleaner.last_stats().tracks_waiting, 0u);
+  EXPECT_GT(s.cleaner.last_stats().voxels_freed, 0u);
+  // The first box, from before the label, is freed within the revisit period.
+  const std::vector<OccupancyMap::VoxelKey> first(walker.begin(), walker.begin() + 20);
+  for (int k = 0; k < 20; ++k) s.step(f++, nullptr);
+  for (auto key : first) EXPECT_NE(s.map->state(key), Occupancy::kOccupied);
+}
+
 TEST(DynamicRegionCleaner, WorkPerFrameIsCapped) {
   Scene s;
   DynamicRegionCleanerConfig config;
@@ -231,6 +258,13 @@ TEST(DynamicRegionCleaner, BadConfigIsRefused) {
   config.inflation = 0.5f;
   EXPECT_EQ(c.init(config, 0.f), Status::kInvalidArgument);
   EXPECT_EQ(c.init(DynamicRegionCleanerConfig{}, NAN), Status::kInvalidArgument);
+  config = DynamicRegionCleanerConfig{};
+  config.min_dynamic_frames = 0;  // a track must be dynamic at least one frame
+  EXPECT_EQ(c.init(config, 0.f), Status::kInvalidArgument);
+  config.min_dynamic_frames = config.frames;  // its first boxes would have left the history
+  EXPECT_EQ(c.init(config, 0.f), Status::kInvalidArgument);
+  config.min_dynamic_frames = config.frames - 1;
+  EXPECT_EQ(c.init(config, 0.f), Status::kOk);
 }
 
 }  // namespace

@@ -957,6 +957,31 @@ TEST(TrackerLabels, WalkerWhoStopsKeepsTheLabelForTheHold) {
   EXPECT_EQ(labels_of_walker_who_stops(90, 15), brief);
 }
 
+// dynamic_frames counts the frames in a row a track is published dynamic (the cleaner trusts no
+// label younger than cleaner.min_dynamic_frames): 1 on the label's first frame, 0 once static.
+TEST(TrackerLabels, DynamicFramesCountTheLabelsRunAndRestartAfterIt) {
+  TrackerConfig config;
+  config.label.dynamic_hold_frames = 0;  // no hold: the stop ends the label
+  auto tracker = make_tracker(config);
+  Stamp stamp = 0;
+  float y = -1.5f;
+  std::uint32_t run = 0;
+  int labelled = 0, dropped = 0;
+  for (int f = 0; f < 60 + 75 + 60; ++f) {
+    if (f < 60 || f >= 135) y += 1.f / 30.f;  // walks, stops 2.5 s, walks on
+    const Detection d = detection({4.f, y, 0.85f});
+    ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    const TrackedObstacle& o = tracker->obstacle(0);
+    labelled += o.dynamic && run == 0;
+    dropped += !o.dynamic && run > 0;
+    run = o.dynamic ? run + 1 : 0;
+    EXPECT_EQ(o.dynamic_frames, run) << "frame " << f;
+  }
+  EXPECT_GE(labelled, 2);  // labelled, dropped during the stop, labelled again
+  EXPECT_GE(dropped, 1);
+}
+
 // A walker stepping out from behind a pillar: for the first 10 frames only 0.2 m of it is seen
 // (in view: the pillar is no image border), then all 0.5 m. The size frozen from the occluded
 // frames is raised by the first full window, and the centre moves to the true one.

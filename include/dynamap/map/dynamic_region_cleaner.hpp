@@ -35,6 +35,12 @@ struct DynamicRegionCleanerConfig {
   /// started and are cleared as before.
   bool keep_static = true;
   std::size_t static_margin_frames = 30;
+  /// A track clears nothing until it has been dynamic this many frames in a row
+  /// (TrackedObstacle::dynamic_frames): a label that holds for one frame is weak evidence, and
+  /// in a run's first second, when no voxel is old enough for keep_static, one such label of a
+  /// wall piece clears the wall along all its track's past boxes. The boxes stay in the history
+  /// (f frames), so a walker's trail is cleared once its label has held.
+  std::size_t min_dynamic_frames = 2;
   std::size_t max_voxels_per_frame = 100000;  ///< cap on voxels examined per frame (all tracks)
   std::size_t max_purge_per_frame = 4096;     ///< cap on expired history entries purged per frame
 
@@ -45,6 +51,7 @@ struct DynamicRegionCleanerConfig {
 /// What the last clean() did.
 struct CleanStats {
   std::size_t dynamic_tracks = 0;
+  std::size_t tracks_waiting = 0;  ///< dynamic, but for fewer than min_dynamic_frames frames
   std::size_t boxes_cleared = 0;
   std::size_t voxels_budgeted = 0;  ///< voxels the scanned boxes span (upper bound of work)
   std::size_t voxels_freed = 0;
@@ -107,6 +114,10 @@ class DynamicRegionCleaner {
       const std::size_t i = (step + frame_) % n_tracks;
       if (!tracker.obstacle(i).dynamic) continue;
       ++stats_.dynamic_tracks;
+      if (tracker.obstacle(i).dynamic_frames < config_.min_dynamic_frames) {
+        ++stats_.tracks_waiting;
+        continue;
+      }
       keep_frames = config_.keep_static
                         ? std::uint64_t{tracker.obstacle(i).age} + config_.static_margin_frames
                         : ~std::uint64_t{0};

@@ -174,10 +174,13 @@ struct TrackedObstacle {
   std::uint32_t dynamic_votes = 0;   ///< dynamic votes in the current window
   std::uint32_t votes = 0;           ///< votes in the window (<= c)
   std::uint32_t dynamic_streak = 0;  ///< dynamic votes in a row (early label)
-  std::uint32_t age = 0;             ///< frames since the track started
-  std::uint32_t hits = 0;            ///< frames with a matched detection
-  std::uint32_t missed_frames = 0;   ///< consecutive frames without a match
-  Stamp last_seen = 0;               ///< stamp of the last matched detection
+  /// Frames in a row this track has been published dynamic (0 while it is not): how long the
+  /// label has held, e.g. for the cleaner, which trusts no label younger than a few frames.
+  std::uint32_t dynamic_frames = 0;
+  std::uint32_t age = 0;            ///< frames since the track started
+  std::uint32_t hits = 0;           ///< frames with a matched detection
+  std::uint32_t missed_frames = 0;  ///< consecutive frames without a match
+  Stamp last_seen = 0;              ///< stamp of the last matched detection
   /// Index of this frame's detection the track was updated with, -1 when it coasted: lets a
   /// caller (diagnosis tools) relate the estimate to the measurement behind it.
   std::int32_t detection = -1;
