@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <set>
@@ -42,6 +43,8 @@ Detection detection_of(const Box3& box) {
   return d;
 }
 
+void tick(OccupancyMap& map, Stamp stamp);
+
 // A scene: a walker crossing in front of the camera at 1 m/s, a static pillar that is tracked,
 // a wall and a floor that are not.
 struct Scene {
@@ -51,6 +54,8 @@ struct Scene {
   DynamicRegionCleaner cleaner;
   std::vector<OccupancyMap::VoxelKey> wall, floor, pillar;
   Box3 pillar_box{Eigen::Vector3f(5.3f, 0.8f, 0.0f), Eigen::Vector3f(5.7f, 1.2f, 1.6f)};
+  bool clock = false;    // step() advances the map's frame count too (an empty frame)
+  int clock_offset = 0;  // frames the map integrated before the walker's frame 0
 
   static Box3 walker_box(int frame) {
     const Eigen::Vector3f c(4.f, -1.5f + frame / 30.f, 0.85f);
@@ -72,7 +77,8 @@ struct Scene {
   void step(int frame, std::vector<OccupancyMap::VoxelKey>* walker_keys) {
     occupy(*map, walker_box(frame), walker_keys);
     const Detection dets[2] = {detection_of(walker_box(frame)), detection_of(pillar_box)};
-    const Stamp stamp = kFrame * static_cast<Stamp>(frame + 1);
+    const Stamp stamp = kFrame * static_cast<Stamp>(clock_offset + frame + 1);
+    if (clock) tick(*map, stamp);
     ASSERT_EQ(tracker->update(dets, 2, Pose{}, stamp), Status::kOk);
     ASSERT_EQ(cleaner.clean(*tracker, *map, *history, stamp), Status::kOk);
   }
@@ -182,31 +188,55 @@ TEST(DynamicRegionCleaner, NothingIsClearedBeforeTheWalkerIsDynamic) {
   EXPECT_EQ(s.cleaner.last_stats().dynamic_tracks, 1u);
 }
 
-// A label that has held for fewer than min_dynamic_frames frames clears nothing; once it has
-// held that long, the boxes from before (still in the history) are cleared too.
-TEST(DynamicRegionCleaner, ALabelClearsOnlyOnceItHasHeld) {
+// The walker of Scene, the map's clock running from `pre_frames` frames before it appears: the
+// frames from its label to the first frame its track clears anything (the label's first frame
+// counts 1; nothing is freed or recorded before), and whether its first box, from before the
+// label, is freed within the revisit period after that.
+struct LabelWait {
+  int frames = -1;
+  bool first_box_freed = false;
+};
+LabelWait label_wait(const DynamicRegionCleanerConfig& config, int pre_frames) {
   Scene s;
-  DynamicRegionCleanerConfig config;
-  config.min_dynamic_frames = 5;
   s.init(config);
+  s.clock = true;
+  s.clock_offset = pre_frames;
+  for (int f = 0; f < pre_frames; ++f) tick(*s.map, kFrame * static_cast<Stamp>(f + 1));
   std::vector<OccupancyMap::VoxelKey> walker;
   int f = 0;
   while (s.cleaner.last_stats().dynamic_tracks == 0 && f < 60) s.step(f++, &walker);
-  ASSERT_LT(f, 60) << "the walker was never labelled";
-  // The label's first frames: counted, waiting, nothing freed.
-  for (std::size_t held = 1; held < config.min_dynamic_frames; ++held) {
+  LabelWait r;
+  if (f >= 60) return r;  // never labelled
+  int held = 1;
+  while (s.cleaner.last_stats().voxels_freed == 0 && held < 45) {
     EXPECT_EQ(s.cleaner.last_stats().tracks_waiting, 1u) << "label frame " << held;
-    EXPECT_EQ(s.cleaner.last_stats().voxels_freed, 0u) << "label frame " << held;
     EXPECT_EQ(s.history->size(), 0u) << "label frame " << held;
     s.step(f++, &walker);
+    ++held;
   }
-  // Held long enough: the current box and older ones are cleared.
+  r.frames = held;
   EXPECT_EQ(s.cleaner.last_stats().tracks_waiting, 0u);
-  EXPECT_GT(s.cleaner.last_stats().voxels_freed, 0u);
-  // The first box, from before the label, is freed within the revisit period.
   const std::vector<OccupancyMap::VoxelKey> first(walker.begin(), walker.begin() + 20);
   for (int k = 0; k < 20; ++k) s.step(f++, nullptr);
-  for (auto key : first) EXPECT_NE(s.map->state(key), Occupancy::kOccupied);
+  r.first_box_freed = std::none_of(first.begin(), first.end(), [&](OccupancyMap::VoxelKey key) {
+    return s.map->state(key) == Occupancy::kOccupied;
+  });
+  return r;
+}
+
+// A label that has held for fewer than min_dynamic_frames frames clears nothing; a track that
+// started in the run's first static_margin_frames frames, where keep_static keeps nothing, waits
+// early_min_dynamic_frames. The boxes from before are cleared once the label has held.
+TEST(DynamicRegionCleaner, ALabelClearsOnlyOnceItHasHeld) {
+  DynamicRegionCleanerConfig config;
+  config.min_dynamic_frames = 5;
+  config.early_min_dynamic_frames = 12;
+  const LabelWait later = label_wait(config, 60);  // the map is 2 s old when the walker comes
+  EXPECT_EQ(later.frames, 5);
+  EXPECT_TRUE(later.first_box_freed);
+  const LabelWait early = label_wait(config, 0);  // the walker is there from the run's start
+  EXPECT_EQ(early.frames, 12);
+  EXPECT_TRUE(early.first_box_freed);
 }
 
 TEST(DynamicRegionCleaner, WorkPerFrameIsCapped) {
@@ -265,6 +295,8 @@ TEST(DynamicRegionCleaner, BadConfigIsRefused) {
   EXPECT_EQ(c.init(config, 0.f), Status::kInvalidArgument);
   config.min_dynamic_frames = config.frames - 1;
   EXPECT_EQ(c.init(config, 0.f), Status::kOk);
+  config.early_min_dynamic_frames = config.frames;
+  EXPECT_EQ(c.init(config, 0.f), Status::kInvalidArgument);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // refiner counts as occupied. Work per frame is capped by a voxel budget.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -41,6 +42,11 @@ struct DynamicRegionCleanerConfig {
   /// wall piece clears the wall along all its track's past boxes. The boxes stay in the history
   /// (f frames), so a walker's trail is cleared once its label has held.
   std::size_t min_dynamic_frames = 2;
+  /// The same for a track that started in the run's first static_margin_frames frames, where
+  /// keep_static has nothing old enough to keep: there a false label of a box face the camera
+  /// saw from the start (a sliver at the image border of a flying camera) clears the face.
+  /// Walkers' trails from the run's start wait longer; their boxes stay in the history.
+  std::size_t early_min_dynamic_frames = 20;
   std::size_t max_voxels_per_frame = 100000;  ///< cap on voxels examined per frame (all tracks)
   std::size_t max_purge_per_frame = 4096;     ///< cap on expired history entries purged per frame
 
@@ -76,9 +82,9 @@ class DynamicRegionCleaner {
 
   /// Clears the recent boxes of every dynamic track of `tracker` (a Tracker, or anything with its
   /// size / obstacle / box_history_size / past_box) in `map` (an OccupancyMap, or anything with its
-  /// clear_box / resolution), keeping static structure (keep_static) and records
-  /// freed voxels in `history` at `stamp`. kTimeNotIncreasing (nothing changes) when stamp is not
-  /// after the previous call's.
+  /// clear_box / resolution / frames_integrated), keeping static structure (keep_static) and
+  /// records freed voxels in `history` at `stamp`. kTimeNotIncreasing (nothing changes) when stamp
+  /// is not after the previous call's.
   template <class Tracks, class Map, std::size_t Capacity>
   [[nodiscard]] Status clean(const Tracks& tracker, Map& map, BasicCleanHistory<Capacity>& history,
                              Stamp stamp) noexcept {
@@ -94,6 +100,7 @@ class DynamicRegionCleaner {
       history.insert(key, stamp);
     };
     std::uint64_t keep_frames = 0;  // the current track's: older voxels are static structure
+    const std::uint64_t run_frames = map.frames_integrated();  // this frame included
     auto clear_one = [&](const Box3& past) -> bool {
       const Box3 region = inflate(past);
       const std::size_t cost = voxel_span(region, res);
@@ -114,7 +121,7 @@ class DynamicRegionCleaner {
       const std::size_t i = (step + frame_) % n_tracks;
       if (!tracker.obstacle(i).dynamic) continue;
       ++stats_.dynamic_tracks;
-      if (tracker.obstacle(i).dynamic_frames < config_.min_dynamic_frames) {
+      if (tracker.obstacle(i).dynamic_frames < min_frames(tracker.obstacle(i).age, run_frames)) {
         ++stats_.tracks_waiting;
         continue;
       }
@@ -145,6 +152,15 @@ class DynamicRegionCleaner {
   const DynamicRegionCleanerConfig& config() const noexcept { return config_; }
 
  private:
+  /// Frames a track of `age` frames must have been dynamic before it clears, the map having
+  /// integrated `run_frames` frames (this one included).
+  std::size_t min_frames(std::uint64_t age, std::uint64_t run_frames) const noexcept {
+    const std::uint64_t started = run_frames >= age ? run_frames - age : 0;
+    const bool unprotected = config_.keep_static && started < config_.static_margin_frames;
+    return unprotected ? std::max(config_.min_dynamic_frames, config_.early_min_dynamic_frames)
+                       : config_.min_dynamic_frames;
+  }
+
   Box3 inflate(const Box3& b) const noexcept {
     const Eigen::Vector3f c = b.center();
     const Eigen::Vector3f half = 0.5f * b.size();

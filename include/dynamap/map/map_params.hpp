@@ -115,6 +115,7 @@ inline constexpr Param<DynamicRegionCleanerConfig> kDynamicRegionCleaner[] = {
     {DYNAMAP_PARAM(DynamicRegionCleanerConfig, keep_static), X, "", 0, 1, kClosed, kClosed, "never clear voxels occupied since before a dynamic track started (static structure)"},
     {DYNAMAP_PARAM(DynamicRegionCleanerConfig, static_margin_frames), X, "frames", 0, 100000, kClosed, kClosed, "occupied this many frames before the track started counts as static"},
     {DYNAMAP_PARAM(DynamicRegionCleanerConfig, min_dynamic_frames), X, "frames", 1, kMaxBoxHistory, kClosed, kClosed, "a track clears only once it has been dynamic this many frames in a row (its boxes wait in the history)"},
+    {DYNAMAP_PARAM(DynamicRegionCleanerConfig, early_min_dynamic_frames), X, "frames", 1, kMaxBoxHistory, kClosed, kClosed, "the same for a track started in the run's first static_margin_frames frames (nothing there is old enough for keep_static)"},
     {DYNAMAP_PARAM(DynamicRegionCleanerConfig, max_voxels_per_frame), C, "", 1, kMaxCleanerVoxelsPerFrame, kClosed, kClosed, "work cap: voxels examined per frame"},
     {DYNAMAP_PARAM(DynamicRegionCleanerConfig, max_purge_per_frame), C, "", 1, kCleanHistoryCapacity, kClosed, kClosed, "work cap: expired history entries purged per frame"},
     // clang-format on
@@ -126,6 +127,10 @@ static_assert(paths_unique(kDynamicRegionCleaner));
 inline constexpr Relation<DynamicRegionCleanerConfig> kDynamicRegionCleanerRelations[] = {
     {"min_dynamic_frames", "must be < cleaner.frames (the boxes must still be there)",
      [](const DynamicRegionCleanerConfig& c) noexcept { return c.min_dynamic_frames < c.frames; }},
+    {"early_min_dynamic_frames", "must be < cleaner.frames (the boxes must still be there)",
+     [](const DynamicRegionCleanerConfig& c) noexcept {
+       return c.early_min_dynamic_frames < c.frames;
+     }},
 };
 
 }  // namespace dynamap::params
