@@ -496,8 +496,11 @@ void Tracker::publish() noexcept {
     t.out.velocity_covariance = t.kf.velocity_covariance();
     t.out.velocity_covariance.diagonal() += bias.cwiseProduct(bias);
     t.out.dynamic = t.label.dynamic();
-    const bool count_on = t.out.dynamic && t.out.dynamic_frames < kMaxLabelCount;
-    t.out.dynamic_frames = t.out.dynamic ? t.out.dynamic_frames + (count_on ? 1u : 0u) : 0u;
+    if (!t.out.dynamic) {
+      t.out.dynamic_frames = 0;
+    } else if (t.out.dynamic_frames < kMaxLabelCount) {
+      ++t.out.dynamic_frames;
+    }
     t.out.dynamic_votes = static_cast<std::uint32_t>(t.label.voter().dynamic_votes());
     t.out.votes = static_cast<std::uint32_t>(t.label.voter().votes());
     t.out.dynamic_streak = static_cast<std::uint32_t>(t.label.dynamic_streak());
