@@ -23,6 +23,11 @@ constexpr int kOccluderGapPixels = 8;
 /// at about the wall's depth.
 constexpr float kOccluderDepthGap = 0.2f;
 
+/// Slack (m) of the view-sweep test (border_sweep_votes_static), about twice the detector's 1.6 cm
+/// noise: a side that the view itself sets (where the range limit or a dark face's dropouts end
+/// the face) moves exactly with the view, on the test's edge.
+constexpr float kViewSweepSlack = 0.03f;
+
 float seconds_between(Stamp earlier, Stamp later) noexcept {
   return static_cast<float>(static_cast<double>(later - earlier) * 1e-9);
 }
@@ -44,6 +49,27 @@ Status validate_box(const Box3& b) noexcept {
 Status validate_detection(const Detection& d) noexcept {
   const Status s = validate_box(d.box);
   return ok(s) ? validate_box(d.raw_box) : s;
+}
+
+/// The top-view corner of a detection box (edges: min x, min y, max x, max y) seen furthest right
+/// in the image from `view` (optical frame: x right, z forward), or furthest left.
+Eigen::Vector2f image_side_corner(const Eigen::Vector4f& edges, float z, const Pose& view,
+                                  bool rightmost) noexcept {
+  Eigen::Vector2f best = edges.head<2>();
+  float best_ratio =
+      rightmost ? -std::numeric_limits<float>::infinity() : std::numeric_limits<float>::infinity();
+  for (int c = 0; c < 4; ++c) {
+    const Eigen::Vector2f corner(edges[(c & 1) != 0 ? 2 : 0], edges[(c & 2) != 0 ? 3 : 1]);
+    const Eigen::Vector3f in_view =
+        view.rotation.conjugate() * (Eigen::Vector3f(corner.x(), corner.y(), z) - view.translation);
+    if (in_view.z() <= 0.f) continue;
+    const float ratio = in_view.x() / in_view.z();
+    if (rightmost ? ratio > best_ratio : ratio < best_ratio) {
+      best_ratio = ratio;
+      best = corner;
+    }
+  }
+  return best;
 }
 
 }  // namespace
@@ -141,7 +167,7 @@ Tracker::Measurement Tracker::measure(const Detection& det, const Eigen::Vector3
   return m;
 }
 
-void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept {
+void Tracker::start_track(Track& t, const Measurement& m, const Pose& view, Stamp stamp) noexcept {
   t.active = true;
   t.dormant = false;
   t.out = TrackedObstacle{};
@@ -154,6 +180,8 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.positions.push(m.center.head<2>(), config_.history_length + 1);
   t.edges.clear();
   t.edges.push(m.edges, config_.history_length + 1);
+  t.views.clear();
+  t.views.push(view, config_.history_length + 1);
   t.boxes.clear();
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
   t.last_measured = m.center.head<2>();
@@ -165,6 +193,7 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   t.growth_rate.setZero();
   const bool counts = m.in_view && m.near_enough;
   t.in_view_frames = counts ? 1 : 0;
+  t.seen_in_full = m.in_view;
   t.size_sum = counts ? m.size : Eigen::Vector3f::Zero();
   if (t.in_view_frames >= config_.size_fix_frames) {
     t.out.size_fixed = true;
@@ -173,8 +202,9 @@ void Tracker::start_track(Track& t, const Measurement& m, Stamp stamp) noexcept 
   }
 }
 
-void Tracker::correct_track(Track& t, const Detection& det, bool own_edge,
-                            const Eigen::Vector3f& camera, Stamp stamp) noexcept {
+void Tracker::correct_track(Track& t, const Detection& det, bool own_edge, const Pose& view,
+                            Stamp stamp) noexcept {
+  const Eigen::Vector3f& camera = view.translation;
   const Measurement m = measure(det, camera, t.out.size_fixed ? &t.size : nullptr);
   const Eigen::Vector2f xy = m.center.head<2>();
   // A step of the frozen size (just set or raised) changes how the detection is turned into a
@@ -210,7 +240,9 @@ void Tracker::correct_track(Track& t, const Detection& det, bool own_edge,
   t.z_center = m.center.z();
   t.positions.push(xy, config_.history_length + 1);
   t.edges.push(m.edges, config_.history_length + 1);
+  t.views.push(view, config_.history_length + 1);
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
+  t.seen_in_full = t.seen_in_full || m.in_view;
   update_size(t, m);
   t.out.missed_frames = 0;
   ++t.out.hits;
@@ -272,12 +304,9 @@ void Tracker::ever_free_evidence(const Detection& det, LabelEvidence* e) const n
 }
 
 bool Tracker::border_sliver(const Detection& det) const noexcept {
-  const ImageBox& b = det.image_box;
-  if (config_.ever_free_min_cut_extent <= 0.f || b.u1 < b.u0) return false;
-  const int m = config_.image_margin;
-  const bool side_cut = b.u0 < m || b.u1 > image_width_ - 1 - m;
+  if (config_.ever_free_min_cut_extent <= 0.f || !side_cut(det.image_box)) return false;
   const Eigen::Vector3f size = det.raw_box.size();
-  return side_cut && std::hypot(size.x(), size.y()) < config_.ever_free_min_cut_extent;
+  return std::hypot(size.x(), size.y()) < config_.ever_free_min_cut_extent;
 }
 
 LabelEvidence Tracker::evidence(Track& t, const Detection& det, bool own_edge) const noexcept {
@@ -310,8 +339,40 @@ LabelEvidence Tracker::evidence(Track& t, const Detection& det, bool own_edge) c
     e.view_bounded = true;  // the box shows the view and the occluders, not the object
     e.voted = false;
     e.dynamic_vote = false;
+  } else if (config_.border_sweep_votes_static && !t.seen_in_full && side_cut(det.image_box) &&
+             view_sweep_explains(t, det.image_box)) {
+    e.dynamic_vote = false;  // the view's motion, not the object's
   }
   return e;
+}
+
+bool Tracker::side_cut(const ImageBox& b) const noexcept {
+  const int m = config_.image_margin;
+  return b.u1 >= b.u0 && (b.u0 < m || b.u1 > image_width_ - 1 - m);
+}
+
+bool Tracker::view_sweep_explains(const Track& t, const ImageBox& b) const noexcept {
+  // Over the whole history, like the rigid-motion test: the longest span gives the most
+  // displacement against the same corner noise.
+  const std::size_t age = t.edges.size() - 1;
+  if (age == 0 || t.views.size() <= age) return false;
+  // The object's own side: the box corner furthest from the cut border in the image, then and
+  // now (the centre of anything cut by the border follows the border, compensate_cut_footprint).
+  const Pose& now = t.views.at_age(0);
+  const Pose& then = t.views.at_age(age);
+  const bool left_cut = b.u0 < config_.image_margin;
+  const Eigen::Vector2f own = image_side_corner(t.edges.at_age(0), t.z_center, now, left_cut);
+  const Eigen::Vector2f own_then =
+      image_side_corner(t.edges.at_age(age), t.z_center, then, left_cut);
+  // Where the point the view now shows there lay then, had it moved with the camera.
+  const Eigen::Vector3f in_view =
+      now.rotation.conjugate() * (Eigen::Vector3f(own.x(), own.y(), t.z_center) - now.translation);
+  const Eigen::Vector2f swept = own - then.apply(in_view).head<2>();
+  const Eigen::Vector2f moved = own - own_then;
+  // A static object's own side stays put (its far end) or slides with the view (where the
+  // sensor ends a face), between none and all of the sweep and along it: inside the circle over
+  // `swept`, whose points see its two ends at a right angle.
+  return (moved - 0.5f * swept).norm() <= 0.5f * swept.norm() + kViewSweepSlack;
 }
 
 Status Tracker::check_input(const Detection* dets, std::size_t count, const Pose& T_map_camera,
@@ -344,12 +405,13 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
     if (frame_.det_used[pr.det] || frame_.track_used[pr.slot]) continue;
     frame_.det_used[pr.det] = true;
     frame_.track_used[pr.slot] = true;
-    correct_track(tracks_[pr.slot], dets[pr.det], frame_.meas[pr.det].own_edge, camera, stamp);
+    correct_track(tracks_[pr.slot], dets[pr.det], frame_.meas[pr.det].own_edge, T_map_camera,
+                  stamp);
     tracks_[pr.slot].out.detection = pr.det;
     tracks_[pr.slot].out.cut = !frame_.meas[pr.det].in_view;
   }
   coast_unmatched();
-  start_tracks(dets, count, stamp);
+  start_tracks(dets, count, T_map_camera, stamp);
   last_stamp_ = stamp;
   has_stamp_ = true;
   if (frames_processed_ < std::numeric_limits<std::size_t>::max()) ++frames_processed_;
@@ -449,7 +511,8 @@ void Tracker::coast_unmatched() noexcept {
   }
 }
 
-void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept {
+void Tracker::start_tracks(const Detection* dets, std::size_t count, const Pose& view,
+                           Stamp stamp) noexcept {
   // Unmatched detections start tracks while slots last; the rest are refused and counted.
   std::size_t free_slot = 0;
   for (std::size_t i = 0; i < count; ++i) {
@@ -470,7 +533,7 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, Stamp stamp
       continue;
     }
     Track& t = tracks_[slot];
-    start_track(t, frame_.meas[i], stamp);
+    start_track(t, frame_.meas[i], view, stamp);
     t.out.detection = static_cast<std::int32_t>(i);
     t.out.cut = !frame_.meas[i].in_view;
     LabelEvidence e;

@@ -666,6 +666,97 @@ TEST(TrackerLabels, GrazingWallPieceSeenFromMovingCameraIsNeverDynamic) {
   }
 }
 
+// A camera flying along +x at 1 m/s past a box whose side face runs along the flight at y = 1 m
+// (corridor_flight's start sliver): the left image border (half field of view 0.76 rad) cuts the
+// face, and its far end is where the dark face's dropouts end it, sliding on at 0.6 of the
+// camera's speed. The visible piece keeps most of its extent and moves in one direction: a
+// rigid, continuous motion that the votes alone read as a walker. Its own side (the far end)
+// moves along with the view and its track was never seen whole, so it votes static
+// (border_sweep_votes_static). Walkers beside it: one overtaking the camera at 1.6 m/s, entering
+// through the same border, moves its own side ahead of the view; one walking at 0.7 m/s, seen
+// whole ahead and then falling back into the border, keeps the label it earned in full view.
+struct FlightPast {
+  bool rule = true;
+  bool walker = false;       // a 0.5 m walker instead of the box face
+  float walker_speed = 0.f;  // m/s along +x
+  float walker_ahead = 0.f;  // its front's distance ahead of the border at the start (m)
+  int frames = 60;
+};
+
+struct FlightLabels {
+  int dynamic = 0;  // frames with a dynamic track
+  int cut = 0;      // frames whose detection the border cut
+  int dynamic_while_cut = 0;
+};
+
+// The camera's optical frame (x right, y down, z forward) looking along +x from `t`.
+Pose camera_looking_along_x(const Eigen::Vector3f& t) {
+  Eigen::Matrix3f r;
+  r << 0.f, 0.f, 1.f, -1.f, 0.f, 0.f, 0.f, -1.f, 0.f;
+  Pose p;
+  p.translation = t;
+  p.rotation = Eigen::Quaternionf(r);
+  return p;
+}
+
+FlightLabels labels_flying_past(const FlightPast& run) {
+  constexpr float kHalfFov = 0.76f;
+  constexpr float kSide = 1.0f;  // the face's y (m)
+  const float border_ahead = kSide / std::tan(kHalfFov);
+  TrackerConfig config;
+  config.border_sweep_votes_static = run.rule;
+  auto tracker = make_tracker(config);
+  FlightLabels out;
+  for (int f = 0; f < run.frames; ++f) {
+    const float t = static_cast<float>(f) / 30.f;
+    const Eigen::Vector3f camera(t, 0.f, 1.2f);
+    const float border = camera.x() + border_ahead;  // where the border meets the face
+    float near_end = border;
+    float far_end = border + 0.9f - 0.4f * t;  // the face's dropouts end it
+    if (run.walker) {
+      const float front = border_ahead + run.walker_ahead + run.walker_speed * t;
+      near_end = std::max(border, front - 0.5f);
+      far_end = front;
+      if (far_end <= near_end) continue;  // not in view
+    }
+    Detection d;
+    d.box.min = Eigen::Vector3f(near_end, kSide, 0.2f);
+    d.box.max = Eigen::Vector3f(far_end, kSide + 0.1f, 1.8f);
+    d.raw_box = d.box;
+    const float bearing = std::atan2(kSide, far_end - camera.x());
+    const int u1 = static_cast<int>(319.5f * (1.f - std::tan(bearing) / std::tan(kHalfFov)));
+    const bool cut = near_end <= border;
+    d.image_box = ImageBox{cut ? 0 : u1 - 60, 100, u1, 400};
+    d.near_depth = near_end - camera.x();
+    d.refined = true;
+    EXPECT_EQ(tracker->update(&d, 1, camera_looking_along_x(camera), kFrame * (f + 1)),
+              Status::kOk);
+    bool dynamic = false;
+    for (std::size_t i = 0; i < tracker->size(); ++i) dynamic |= tracker->obstacle(i).dynamic;
+    out.dynamic += dynamic;
+    out.cut += cut;
+    out.dynamic_while_cut += dynamic && cut;
+  }
+  return out;
+}
+
+TEST(TrackerLabels, AFaceTheViewSweepsOverIsNeverDynamic) {
+  const FlightLabels face = labels_flying_past({});
+  const FlightLabels rule_off = labels_flying_past({false});
+  const FlightLabels overtaking = labels_flying_past({true, true, 1.6f, -0.1f});
+  const FlightLabels falling_back = labels_flying_past({true, true, 0.7f, 1.2f, 120});
+  std::printf(
+      "dynamic frames: face %d, face with the rule off %d, walker overtaking %d of %d, "
+      "walker falling back %d of %d cut frames\n",
+      face.dynamic, rule_off.dynamic, overtaking.dynamic, overtaking.cut,
+      falling_back.dynamic_while_cut, falling_back.cut);
+  EXPECT_EQ(face.dynamic, 0);
+  EXPECT_GE(rule_off.dynamic, 30);
+  EXPECT_GE(overtaking.dynamic, 30);
+  EXPECT_GE(falling_back.cut, 30);
+  EXPECT_EQ(falling_back.dynamic_while_cut, falling_back.cut);
+}
+
 // A surface 5 m away seen between a walker 3 m away and the image border (a crate face, a wall
 // window): the walker moves, and the visible piece slides with the walker's edge at 1 m/s, as a
 // whole. No side of its image box is its own, so it casts no vote and stays static; with the rule

@@ -120,6 +120,7 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, max_static_share), X, "", 0, 1, kClosed, kClosed, "detections with more of their voxels long occupied vote static (1: off)"},
     {DYNAMAP_PARAM(TrackerConfig, static_overrules_ever_free), X, "", 0, 1, kClosed, kClosed, "a detection on long-occupied voxels neither extends nor ends an ever-free run"},
     {DYNAMAP_PARAM(TrackerConfig, ever_free_min_cut_extent), X, "m", 0, 10, kClosed, kClosed, "a detection cut by the left or right border and narrower than this neither extends nor ends an ever-free run (0: off)"},
+    {DYNAMAP_PARAM(TrackerConfig, border_sweep_votes_static), X, "", 0, 1, kClosed, kClosed, "on a track never fully in view, a detection cut by the left or right border votes static while its own side (away from that border) moves no further than the view there, and along it"},
     // clang-format on
 };
 static_assert(paths_unique(kTracker));

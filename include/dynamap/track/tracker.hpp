@@ -148,6 +148,15 @@ struct TrackerConfig {
   /// says nothing about it: a standing child and a box corner at the border of a turning camera
   /// were labelled dynamic by it. A walker leaving the view keeps its run.
   float ever_free_min_cut_extent = 0.2f;
+  /// On a track never measured fully in view, a detection cut by the left or right image border
+  /// votes static when its own side (the box corner furthest from that border in the image)
+  /// moved along with the view: no further than a point fixed in the camera's view there did
+  /// over the position history, and in its direction. The border sweeping over a static object
+  /// slides its visible part: the side face of a box a flying camera passes (corridor_flight) was
+  /// labelled dynamic by its votes before any voxel of it was old enough to count as static
+  /// structure. A walker keeping pace with the view at the border looks the same, and waits
+  /// until it moves ahead of the view or comes into full view (docs/tracker.md).
+  bool border_sweep_votes_static = true;
 
   /// kInvalidArgument for out-of-range values or broken relations (nested configs included;
   /// params::kTrackerRelations, track_params.hpp).
@@ -226,6 +235,7 @@ class Tracker {
     HistoryRing<Eigen::Vector2f, kMaxTrackHistory> positions;  // measured, bias-corrected
     HistoryRing<Box3, kMaxBoxHistory> boxes;
     HistoryRing<Eigen::Vector4f, kMaxTrackHistory> edges;  // detection boxes' top-view min, max
+    HistoryRing<Pose, kMaxTrackHistory> views;             // camera pose of each measured frame
     Eigen::Vector2f last_measured = Eigen::Vector2f::Zero();
     Stamp last_measured_stamp = 0;
     float z_center = 0.f;
@@ -236,6 +246,7 @@ class Tracker {
     Eigen::Vector2f growth_rate = Eigen::Vector2f::Zero();    // smoothed d(extent)/dt (m/s)
     std::size_t in_view_frames = 0;
     bool active = false;
+    bool seen_in_full = false;  // a detection fully in view has been measured (not only cut)
     bool dormant = false;  // beyond max_missed_frames, kept for reacquire_frames, not published
   };
   using Measurement = detail::TrackMeasurement;
@@ -247,13 +258,14 @@ class Tracker {
   void associate(std::size_t count) noexcept;
   void coast_unmatched() noexcept;
   void mark_own_edges(const Detection* dets, std::size_t count) noexcept;
-  void start_tracks(const Detection* dets, std::size_t count, Stamp stamp) noexcept;
+  void start_tracks(const Detection* dets, std::size_t count, const Pose& view,
+                    Stamp stamp) noexcept;
   Measurement measure(const Detection& det, const Eigen::Vector3f& camera,
                       const Eigen::Vector3f* fixed_size) const noexcept;
   bool fully_in_view(const ImageBox& b) const noexcept;
   bool moves_rigidly(const Track& t) const noexcept;
-  void start_track(Track& t, const Measurement& m, Stamp stamp) noexcept;
-  void correct_track(Track& t, const Detection& det, bool own_edge, const Eigen::Vector3f& camera,
+  void start_track(Track& t, const Measurement& m, const Pose& view, Stamp stamp) noexcept;
+  void correct_track(Track& t, const Detection& det, bool own_edge, const Pose& view,
                      Stamp stamp) noexcept;
   // The steps of correct_track after the filter update: size estimate (freeze, growth) and
   // the evidence for the label (the continuity filter's vote among it).
@@ -262,6 +274,11 @@ class Tracker {
   void ever_free_evidence(const Detection& det, LabelEvidence* e) const noexcept;
   /// Cut by the left or right border and narrower than config_.ever_free_min_cut_extent.
   bool border_sliver(const Detection& det) const noexcept;
+  /// The image box touches the left or right border (within image_margin).
+  bool side_cut(const ImageBox& b) const noexcept;
+  /// The own side (away from the cut border) of the detection box `b` moved over the position
+  /// history as the view's own motion moves a static object's (border_sweep_votes_static).
+  bool view_sweep_explains(const Track& t, const ImageBox& b) const noexcept;
   bool plausible_size(const Eigen::Vector3f& size) const noexcept;
   /// Most of the detection's voxels long occupied (static share above max_static_share).
   bool on_static_structure(const Detection& det) const noexcept {
