@@ -299,7 +299,8 @@ TEST(TrackerAssociation, MoreTargetsThanCapacityAreRefusedAndCounted) {
   auto tracker = make_tracker();
   std::vector<Detection> dets;
   for (std::size_t i = 0; i < kMaxTracks; ++i) {
-    dets.push_back(detection({4.f + 2.f * (i % 8), 2.f * (i / 8), 0.85f}));
+    const std::size_t row = i / 8;  // eight per row
+    dets.push_back(detection({4.f + 2.f * (i % 8), 2.f * row, 0.85f}));
   }
   ASSERT_EQ(tracker->update(dets.data(), dets.size(), camera_at(), kFrame), Status::kOk);
   ASSERT_EQ(tracker->size(), kMaxTracks);
@@ -1462,7 +1463,8 @@ TEST(TrackerRobustness, NoHeapAllocationPerFrame) {
       // Image boxes side by side; the nearest column is cut by the right border now and then.
       const int u0 = static_cast<int>(40 * (i % 16));
       const ImageBox image{u0, 100, u0 + 30, 400};
-      dets.push_back(detection({4.f + 1.5f * (i % 8), 1.5f * (i / 8), 0.85f}, kPerson, image));
+      const std::size_t row = i / 8;  // eight per row
+      dets.push_back(detection({4.f + 1.5f * (i % 8), 1.5f * row, 0.85f}, kPerson, image));
     }
     Stamp stamp = 0;
     test::AllocationGuard guard;
