@@ -18,7 +18,8 @@ void MapIntegrator::carve_rays(std::size_t begin, std::size_t end, const DepthVi
       return;
     }
     detail::RayWalk w;
-    if (!start_ray(ordered_rays_[r], depth, camera, kEarlyStop, w)) continue;
+    if (!start_ray(ordered_rays_[r], depth, camera, kEarlyStop || p_->config.keep_own_surface, w))
+      continue;
     ++k.rays;
     std::size_t steps = w.visits;
     const bool capped = steps > k.visits_left;
@@ -26,6 +27,7 @@ void MapIntegrator::carve_rays(std::size_t begin, std::size_t end, const DepthVi
     k.visits_left -= steps;
     k.visits += steps;
     cursor.run = 0;
+    cursor.surface = w.own_surface;
     const std::size_t left = detail::walk_ray<kBlockBits>(w, steps, cursor);
     if (left > 0) {
       // The voxels after the stopping one were never looked at: back to the budget.

@@ -198,6 +198,7 @@ bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const
   Eigen::Array4f end;
   bool end_is_hit = false;
   IndexVec last{};
+  w.own_surface = false;
   const std::uint8_t* carve_cells = no_return_row(v);
   const bool zero_carves = carve_cells != nullptr && carve_cells[u / kNoReturnCellPixels] != 0;
   if (!end_point(depth.at(u, v), zero_carves,
@@ -205,6 +206,7 @@ bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const
                  end_is_hit)) {
     return false;
   }
+  w.own_surface = end_is_hit && from_end && p_->config.keep_own_surface;
   if (end_is_hit && p_->config.carve_gap_quadratic > 0.f) {
     if (!stop_short(static_cast<float>(depth.at(u, v)) * g_.depth_scale,
                     g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v), end, last)) {
@@ -250,9 +252,11 @@ struct MapIntegrator::SequentialCursor {
   const std::uint16_t hit_stamp, miss_stamp;
   const std::int32_t q_miss, q_min, q_occupied;
   const std::uint32_t stop_after;
+  const std::uint16_t now_tick, min_age_ticks;
   Block* block = nullptr;
   std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
   std::uint32_t run = 0;       // consecutive voxels found missed this frame (early stop)
+  bool surface = false;        // still on the ray's own surface (keep_own_surface)
 
   void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t n) noexcept {
     block = map.local_block(grid, bi, bj, bk);
@@ -280,8 +284,23 @@ struct MapIntegrator::SequentialCursor {
     // A miss can only turn occupied into free.
     if (old > q_occupied && updated <= q_occupied) --block->occupied;
   }
+  /// Whether the voxel was occupied before this frame's carving (a voxel an earlier ray missed
+  /// this frame is judged by its value before that miss) and long enough, or hit this frame.
+  bool on_surface(std::size_t li) const noexcept {
+    const Voxel& vx = block->voxels[li];
+    const std::int32_t before = vx.stamp == miss_stamp ? vx.log_odds - q_miss : vx.log_odds;
+    return on_own_surface(vx.stamp == hit_stamp, before, q_occupied, block->occupied_since[li],
+                          now_tick, min_age_ticks);
+  }
   bool visit(std::int32_t li) noexcept {
     Voxel& vx = block->voxels[static_cast<std::size_t>(li)];
+    if (surface) {
+      if (on_surface(static_cast<std::size_t>(li))) {
+        run = 0;
+        return false;
+      }
+      surface = false;
+    }
     if constexpr (kEarlyStop) {
       // Only misses count towards the stop: at grazing angles a ray crosses voxels that other
       // pixels hit, and the space beyond them may still be this ray's alone.
@@ -315,7 +334,9 @@ void MapIntegrator::carve_free_space(const DepthView& depth) noexcept {
                                       p_->q_miss,
                                       p_->q_min,
                                       p_->q_occupied,
-                                      static_cast<std::uint32_t>(p_->config.free_ray_early_stop)};
+                                      static_cast<std::uint32_t>(p_->config.free_ray_early_stop),
+                                      store_->since_tick(),
+                                      own_surface_min_ticks()};
   carve_rays<kEarlyStop>(0, rays, depth, camera, cursor, k);
   stats_.rays += k.rays;
   stats_.rays_stopped_early += k.rays_stopped;

@@ -5,6 +5,14 @@
 
 namespace dynamap::detail {
 
+/// keep_own_surface: whether a voxel hit this frame, or with log-odds `before` (this frame's
+/// carving) above the occupied threshold since tick `since` for at least `min_age` ticks, is
+/// part of the surface a hit ray ends on.
+inline bool on_own_surface(bool hit, std::int32_t before, std::int32_t q_occupied,
+                           std::uint16_t since, std::uint16_t now, std::uint16_t min_age) noexcept {
+  return hit || (before > q_occupied && static_cast<std::uint16_t>(now - since) >= min_age);
+}
+
 inline MapIntegrator::LocalGrid MapIntegrator::local_grid() noexcept {
   LocalGrid g{grid_origin_, {}, local_grid_.data()};
   if (grid_enabled_) {

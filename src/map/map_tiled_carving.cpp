@@ -25,9 +25,13 @@ struct MapIntegrator::TileCursor {
   TileScratch& tile;
   const std::uint16_t hit_stamp;
   const std::uint32_t stop_after;
+  const std::int32_t q_occupied;
+  const std::uint16_t now_tick, min_age_ticks;
+  const bool read_blocks;  // keep_own_surface: reads voxels pass 1 did not touch
   const Block* block = nullptr;
   std::uint64_t* marks = nullptr;
   std::uint32_t run = 0;
+  bool surface = false;  // still on the ray's own surface (keep_own_surface)
 
   void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t) noexcept {
     const auto gi = static_cast<std::uint32_t>(bi - grid.origin[0]);
@@ -41,8 +45,13 @@ struct MapIntegrator::TileCursor {
     }
     const std::uint32_t cell = gi + grid.dim[0] * (gj + grid.dim[1] * gk);
     const std::uint16_t slot = grid.cells[cell];
-    // A cell pass 1 did not resolve holds no hit of this frame.
+    // A cell pass 1 did not resolve holds no hit of this frame. Its block, if any, is only
+    // read (nothing writes the store while the tiles walk).
     block = slot != 0 ? &map.store_->block(slot - 1u) : &map.empty_block_;
+    if (slot == 0 && read_blocks) {
+      const Block* stored = static_cast<const BlockStore*>(map.store_)->find(bi, bj, bk);
+      if (stored != nullptr) block = stored;
+    }
     std::uint16_t& set = tile.slot_of_cell[cell];
     if (set == 0) {
       tile.cells[tile.cell_count] = static_cast<std::uint16_t>(cell);
@@ -52,7 +61,20 @@ struct MapIntegrator::TileCursor {
     marks = tile.marks[set - 1u].data();
   }
   void leave(std::size_t) noexcept {}
+  /// Whether the voxel is occupied (long enough) before this frame's carving, or hit this frame.
+  bool on_surface(std::size_t li) const noexcept {
+    const Voxel& vx = block->voxels[li];
+    return on_own_surface(vx.stamp == hit_stamp, vx.log_odds, q_occupied, block->occupied_since[li],
+                          now_tick, min_age_ticks);
+  }
   bool visit(std::int32_t li) noexcept {
+    if (surface) {
+      if (on_surface(static_cast<std::size_t>(li))) {
+        run = 0;
+        return false;
+      }
+      surface = false;
+    }
     std::uint64_t& word = marks[li >> 6];
     const std::uint64_t bit = std::uint64_t{1} << (li & 63);
     if ((word & bit) != 0) {
@@ -78,8 +100,15 @@ void MapIntegrator::carve_tile(std::size_t t, const DepthView& depth) noexcept {
   tile.counters.visits_left = std::max<std::size_t>(
       1, p_->config.max_voxel_visits_per_frame / static_cast<std::size_t>(p_->config.carve_tiles));
   const std::uint16_t hit_stamp = store_->stamp(kHit);
-  TileCursor<kEarlyStop> cursor{*this, local_grid(), tile, hit_stamp,
-                                static_cast<std::uint32_t>(p_->config.free_ray_early_stop)};
+  TileCursor<kEarlyStop> cursor{*this,
+                                local_grid(),
+                                tile,
+                                hit_stamp,
+                                static_cast<std::uint32_t>(p_->config.free_ray_early_stop),
+                                p_->q_occupied,
+                                store_->since_tick(),
+                                own_surface_min_ticks(),
+                                p_->config.keep_own_surface};
   carve_rays<kEarlyStop>(tile.ray_begin, tile.ray_end, depth, camera, cursor, tile.counters);
   for (std::size_t s = 0; s < tile.cell_count; ++s) {
     std::uint64_t any = 0;

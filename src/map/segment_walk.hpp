@@ -138,6 +138,7 @@ struct RayWalk {
   float tx, ty, tz;         ///< t of the next boundary per axis
   float dx, dy, dz;         ///< t between boundaries per axis
   std::size_t visits;       ///< voxels to visit, the first one included
+  bool own_surface;         ///< walked from a hit's end, sparing its own surface (keep_own_surface)
 };
 
 /// Walks `n` voxels of `w` (blocks of 2^kBits voxels per edge), calling cursor.enter(bi, bj,

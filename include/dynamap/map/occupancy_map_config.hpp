@@ -62,6 +62,12 @@ struct OccupancyMapConfig {
   /// stretch of such a ray runs through the surface's own voxels. Default: 2 sigma of a stereo
   /// camera's noise (0.0042 z^2; 13 cm at 4 m). 0: up to the end voxel (docs/occupancy_map.md).
   float carve_gap_quadratic = 0.0084f;
+  /// A hit ray does not carve the occupied voxels it crosses next to its end (walked from the
+  /// end, until its first voxel that is not occupied): at a grazing angle the last stretch of a
+  /// ray runs along its own surface's voxel layer, whose voxels the surface only partly fills.
+  bool keep_own_surface = true;
+  /// keep_own_surface spares only voxels occupied for at least this many frames (0: any).
+  int own_surface_min_frames = 30;
   int pixel_margin = 2, pixel_stride = 2;
   Eigen::Vector3f local_half_extent{5.f, 5.f, 3.f};    ///< only this region around the camera is
                                                        ///< updated (rays are clipped to it)

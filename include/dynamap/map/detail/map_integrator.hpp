@@ -166,6 +166,12 @@ class MapIntegrator {
   template <bool kEarlyStop>
   struct TileCursor;
   std::size_t order_rays(int tiles, bool by_level) noexcept;
+  /// own_surface_min_frames in occupied-since ticks, rounded up.
+  std::uint16_t own_surface_min_ticks() const noexcept {
+    const auto frames = static_cast<std::uint64_t>(p_->config.own_surface_min_frames);
+    return static_cast<std::uint16_t>((frames + BlockStore::kSinceTickFrames - 1) /
+                                      BlockStore::kSinceTickFrames);
+  }
   void list_tile_rays(std::size_t tile) noexcept;
   void order_tile_claims() noexcept;
   bool stop_short(float z, const Eigen::Array4f& dir, Eigen::Array4f& end,
