@@ -60,8 +60,7 @@ Eigen::Vector2f image_side_corner(const Eigen::Vector4f& edges, float z, const P
       rightmost ? -std::numeric_limits<float>::infinity() : std::numeric_limits<float>::infinity();
   for (int c = 0; c < 4; ++c) {
     const Eigen::Vector2f corner(edges[(c & 1) != 0 ? 2 : 0], edges[(c & 2) != 0 ? 3 : 1]);
-    const Eigen::Vector3f in_view =
-        view.rotation.conjugate() * (Eigen::Vector3f(corner.x(), corner.y(), z) - view.translation);
+    const Eigen::Vector3f in_view = view.apply_inverse(Eigen::Vector3f(corner.x(), corner.y(), z));
     if (in_view.z() <= 0.f) continue;
     const float ratio = in_view.x() / in_view.z();
     if (rightmost ? ratio > best_ratio : ratio < best_ratio) {
@@ -365,8 +364,7 @@ bool Tracker::view_sweep_explains(const Track& t, const ImageBox& b) const noexc
   const Eigen::Vector2f own_then =
       image_side_corner(t.edges.at_age(age), t.z_center, then, left_cut);
   // Where the point the view now shows there lay then, had it moved with the camera.
-  const Eigen::Vector3f in_view =
-      now.rotation.conjugate() * (Eigen::Vector3f(own.x(), own.y(), t.z_center) - now.translation);
+  const Eigen::Vector3f in_view = now.apply_inverse(Eigen::Vector3f(own.x(), own.y(), t.z_center));
   const Eigen::Vector2f swept = own - then.apply(in_view).head<2>();
   const Eigen::Vector2f moved = own - own_then;
   // A static object's own side stays put (its far end) or slides with the view (where the

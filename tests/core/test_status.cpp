@@ -46,6 +46,21 @@ TEST(Validation, PoseChecksFinitenessAndUnitQuaternion) {
   EXPECT_EQ(validate_pose(p), Status::kNonUnitQuaternion);
 }
 
+TEST(Pose, ApplyInverseUndoesApply) {
+  Pose p;
+  p.translation = Eigen::Vector3f(1.f, -2.f, 0.5f);
+  p.rotation =
+      Eigen::Quaternionf(Eigen::AngleAxisf(0.7f, Eigen::Vector3f(1.f, 2.f, 3.f).normalized()));
+  const Eigen::Vector3f x(0.3f, 4.f, -1.f);
+  EXPECT_LT((p.apply_inverse(p.apply(x)) - x).norm(), 1e-5f);
+  EXPECT_LT((p.apply(p.apply_inverse(x)) - x).norm(), 1e-5f);
+  EXPECT_LT(p.apply_inverse(p.translation).norm(), 1e-6f);  // the pose's origin
+  // A quarter turn about z: the outer frame's x axis is this frame's -y.
+  p = Pose{};
+  p.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(1.5707963f, Eigen::Vector3f::UnitZ()));
+  EXPECT_LT((p.apply_inverse(Eigen::Vector3f::UnitX()) + Eigen::Vector3f::UnitY()).norm(), 1e-6f);
+}
+
 TEST(Validation, DepthViewChecksNullSizeAndStride) {
   CameraIntrinsics cam;
   cam.width = 4;

@@ -641,11 +641,11 @@ TEST(OccupancyMap, DepthNoiseBehindAThinWallAlmostNeverCarvesIt) {
   EXPECT_LE(100 * front[1], front[0]);
 }
 
-/// Wall voxels lost in a grazing view: a wall 3 cm into its voxel layer (plane y = 1.03 m) is
-/// first seen obliquely, then from 0.83 m beside it looking along it (15-40 deg to the face),
-/// with depth noise. Counts the voxels of the face occupied after the oblique view that the
-/// grazing view leaves free at the end, and the voxel-frames held free, within 1.5-3 m. With
-/// `dark_block`, one block's stretch of the face returns nothing while grazed.
+/// Wall voxels lost in a grazing view: a dark wall 3 cm into its voxel layer (plane y = 1.03 m)
+/// is first seen obliquely, then from 0.53 m beside it looking along it (10-20 deg to the face
+/// at 1.5-3 m), with depth noise. Counts the voxels of the face occupied after the oblique view
+/// that the grazing view leaves free at the end, and the voxel-frames held free, within 1.5-3 m.
+/// With `dark_block`, one block's stretch of the face returns nothing while grazed.
 std::pair<std::size_t, std::size_t> grazed_wall_voxels(const OccupancyMapConfig& cfg,
                                                        bool dark_block = false) {
   const CameraIntrinsics cam = small_camera(320, 240);

@@ -48,6 +48,10 @@ struct Pose {
   Eigen::Vector3f apply(const Eigen::Vector3f& p) const noexcept {
     return rotation * p + translation;
   }
+  /// The inverse of apply(): a point of the outer frame (the map) in this pose's frame.
+  Eigen::Vector3f apply_inverse(const Eigen::Vector3f& p) const noexcept {
+    return rotation.conjugate() * (p - translation);
+  }
 };
 
 /// Axis-aligned 3-D box by its corners (min <= max on every axis when valid).
