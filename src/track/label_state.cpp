@@ -12,7 +12,9 @@ void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexce
   *this = LabelState{};
   young_run_allowed_ = config.early_while_young && e.run_frame >= config.young_run_from_frame;
   ever_free_streak_ = e.in_ever_free && !e.ever_free_overruled ? 1 : 0;
-  mode_ = ever_free_run(e, config) ? LabelMode::kDynamic : LabelMode::kStatic;
+  const bool in_range = config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth;
+  inherited_ = e.follows_lost_dynamic && e.plausible_size && in_range;
+  mode_ = ever_free_run(e, config) || inherited_ ? LabelMode::kDynamic : LabelMode::kStatic;
 }
 
 void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& continuity,
@@ -34,7 +36,10 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
   if (e.voted) {
     voter_.push(e.dynamic_vote, continuity);
     dynamic_streak_ = e.dynamic_vote ? dynamic_streak_ + 1 : 0;
-    if (!e.dynamic_vote) every_vote_dynamic_ = false;
+    if (!e.dynamic_vote) {
+      every_vote_dynamic_ = false;
+      inherited_ = false;
+    }
     // The early run counts for a track whose votes were all dynamic, one dynamic before (or with
     // an early run beyond the range), or a young one (window not full, no gap) that started
     // after the run's first second. It labels only within early_max_depth.
@@ -48,7 +53,9 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
   } else {
     dynamic_streak_ = 0;  // an abstention (no history yet, or not rigid) ends the early run
   }
-  if (votes_say || ever_free_run(e, config)) {
+  const bool inherited =
+      inherited_ && (config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth);
+  if (votes_say || inherited || ever_free_run(e, config)) {
     mode_ = LabelMode::kDynamic;
     held_frames_ = 0;
     if (dynamic_frames_ < kMaxLabelCount) ++dynamic_frames_;
@@ -77,6 +84,7 @@ void LabelState::missed() noexcept {
   // The early and ever-free labels need an unbroken run: a gap ends both runs.
   dynamic_streak_ = 0;
   ever_free_streak_ = 0;
+  inherited_ = false;
   if (voter_.votes() > 0) {
     every_vote_dynamic_ = false;
     missed_after_vote_ = true;

@@ -105,6 +105,8 @@ void Tracker::clear() noexcept {
   has_stamp_ = false;
   last_stamp_ = 0;
   frames_processed_ = 0;
+  lost_count_ = 0;
+  lost_next_ = 0;
 }
 
 bool Tracker::fully_in_view(const ImageBox& b) const noexcept {
@@ -184,6 +186,7 @@ void Tracker::start_track(Track& t, const Measurement& m, const Pose& view, Stam
   t.boxes.clear();
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
   t.last_measured = m.center.head<2>();
+  t.last_measured_velocity.setZero();
   t.last_measured_stamp = stamp;
   t.z_center = m.center.z();
   t.size = m.size;
@@ -235,6 +238,7 @@ void Tracker::correct_track(Track& t, const Detection& det, bool own_edge, const
   t.last_raw_size = m.raw_size.head<2>();
 
   t.last_measured = xy;
+  t.last_measured_velocity = t.kf.velocity();
   t.last_measured_stamp = stamp;
   t.z_center = m.center.z();
   t.positions.push(xy, config_.history_length + 1);
@@ -247,6 +251,7 @@ void Tracker::correct_track(Track& t, const Detection& det, bool own_edge, const
   ++t.out.hits;
   t.out.last_seen = stamp;
   t.label.measured(evidence(t, det, own_edge), config_.continuity, config_.label);
+  t.dynamic_when_measured = t.label.dynamic();
   t.dormant = false;
 }
 
@@ -449,8 +454,7 @@ void Tracker::predict_tracks(Stamp stamp) noexcept {
   for (Track& t : tracks_) {
     if (!t.active) continue;
     if (seconds_between(t.last_measured_stamp, stamp) > config_.max_coast_time) {
-      t.active = false;
-      ++dropped_tracks_;
+      drop_track(t);
       continue;
     }
     if (dt > 0.f) (void)t.kf.predict(dt);
@@ -500,9 +504,7 @@ void Tracker::coast_unmatched() noexcept {
     // Only a track whose vote window still says dynamic: it comes back labelled.
     const std::size_t extra = t.label.dynamic() ? config_.reacquire_frames : 0;
     if (t.out.missed_frames > config_.max_missed_frames + extra) {
-      t.active = false;
-      t.dormant = false;
-      ++dropped_tracks_;
+      drop_track(t);
     } else {
       t.dormant = true;
     }
@@ -524,7 +526,7 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, const Pose&
       for (slot = 0; slot < kMaxTracks; ++slot) {
         if (tracks_[slot].dormant && !frame_.track_used[slot]) break;
       }
-      if (slot < kMaxTracks) ++dropped_tracks_;
+      if (slot < kMaxTracks) drop_track(tracks_[slot]);
     }
     if (slot >= kMaxTracks) {
       ++refused_tracks_;
@@ -538,9 +540,58 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, const Pose&
     ever_free_evidence(dets[i], &e);
     e.plausible_size = plausible_size(t.size);
     e.run_frame = frames_processed_;
+    e.near_depth = dets[i].near_depth;
+    Eigen::Vector2f velocity = Eigen::Vector2f::Zero();
+    e.follows_lost_dynamic =
+        !frame_.meas[i].on_static && follows_lost_dynamic(frame_.meas[i], stamp, &velocity);
     t.label.start(e, config_.label);
+    if (t.label.dynamic() && e.follows_lost_dynamic) {
+      const Eigen::Vector3f& c = frame_.meas[i].center;
+      t.kf.reset(Eigen::Vector4f(c.x(), c.y(), velocity.x(), velocity.y()), config_.kalman);
+    }
+    t.dynamic_when_measured = t.label.dynamic();
     if (slot == free_slot) ++free_slot;
   }
+}
+
+void Tracker::drop_track(Track& t) noexcept {
+  if (t.active && t.dynamic_when_measured && config_.inherit_time > 0.f) {
+    lost_[lost_next_] =
+        LostTrack{t.last_measured, t.last_measured_velocity, t.size.z(), t.last_measured_stamp};
+    lost_next_ = (lost_next_ + 1) % kMaxTracks;
+    lost_count_ = std::min(lost_count_ + 1, kMaxTracks);
+  }
+  t.active = false;
+  t.dormant = false;
+  ++dropped_tracks_;
+}
+
+bool Tracker::follows_lost_dynamic(const Measurement& m, Stamp stamp,
+                                   Eigen::Vector2f* velocity) const noexcept {
+  if (config_.inherit_time <= 0.f) return false;
+  float best = std::numeric_limits<float>::infinity();
+  const auto consider = [&](const Eigen::Vector2f& position, const Eigen::Vector2f& v, float height,
+                            Stamp measured) {
+    const float since = seconds_between(measured, stamp);
+    if (since > config_.inherit_time) return;
+    if (std::abs(m.size.z() - height) > config_.inherit_height_tolerance) return;
+    const float radius = config_.inherit_radius + config_.inherit_radius_growth * since;
+    const float distance = (m.center.head<2>() - (position + v * since)).norm();
+    if (distance <= radius && distance < best) {
+      best = distance;
+      *velocity = v;
+    }
+  };
+  for (std::size_t k = 0; k < lost_count_; ++k) {
+    const LostTrack& l = lost_[k];
+    consider(l.position, l.velocity, l.height, l.last_measured_stamp);
+  }
+  // Tracks still coasting or dormant (not measured this frame, nor started in it).
+  for (const Track& t : tracks_) {
+    if (!t.active || t.last_measured_stamp == stamp || !t.dynamic_when_measured) continue;
+    consider(t.last_measured, t.last_measured_velocity, t.size.z(), t.last_measured_stamp);
+  }
+  return best < std::numeric_limits<float>::infinity();
 }
 
 void Tracker::publish() noexcept {

@@ -293,6 +293,48 @@ TEST_F(LabelStateTest, EarlyRunRelabelsATrackThatWasDynamic) {
   EXPECT_EQ(s.mode(), LabelMode::kDynamic);
 }
 
+// A new track where a dynamic track was lost a moment ago starts dynamic and keeps the label
+// through abstentions and dynamic votes; a static vote or a missed frame withdraws it, and so
+// does leaving the early run's range. An implausible size or a start beyond the range gets none.
+TEST_F(LabelStateTest, LabelFromALostDynamicTrackHoldsUntilContradicted) {
+  lc.early_votes = 4;
+  LabelEvidence follows = no_vote(false);
+  follows.follows_lost_dynamic = true;
+  follows.near_depth = 3.f;
+  const auto started = [&] {
+    s.start(follows, lc);
+    return s.dynamic();
+  };
+  EXPECT_TRUE(started());
+  measure(no_vote(false));  // no history yet: no vote
+  EXPECT_TRUE(s.dynamic());
+  measure(vote(true), 2);
+  EXPECT_TRUE(s.dynamic());
+  measure(vote(false));
+  EXPECT_FALSE(s.dynamic());
+
+  ASSERT_TRUE(started());
+  s.missed();
+  EXPECT_FALSE(s.dynamic());
+  measure(no_vote(false));
+  EXPECT_FALSE(s.dynamic());
+
+  ASSERT_TRUE(started());
+  LabelEvidence far = no_vote(false);
+  far.near_depth = 6.f;  // beyond early_max_depth (5 m)
+  measure(far);
+  EXPECT_FALSE(s.dynamic());
+
+  follows.plausible_size = false;
+  EXPECT_FALSE(started());
+  follows.plausible_size = true;
+  follows.near_depth = 6.f;
+  EXPECT_FALSE(started());
+  follows.follows_lost_dynamic = false;
+  follows.near_depth = 3.f;
+  EXPECT_FALSE(started());
+}
+
 TEST_F(LabelStateTest, EverFreeRunLabelsDynamicBeforeAnyVote) {
   lc.ever_free_frames = 3;
   s.start(no_vote(true), lc);

@@ -195,6 +195,52 @@ TEST(TrackerAssociation, DynamicTrackHiddenForAMomentIsTakenUpAgainWithItsLabel)
   EXPECT_GT(tracker->obstacle(0).id, id);
 }
 
+// A walker labelled dynamic, hidden for 8 frames, comes back 0.4 m off its path (a sliver
+// stepping out, a turn while hidden): beyond the association gate, so a new track, which starts
+// labelled dynamic, with the lost track's velocity, and keeps the label as it walks on, whether
+// the lost track is still kept (dormant) or was dropped. Not with inherit_time 0, not 2 m away,
+// not on long-occupied voxels, not 0.6 m lower than the walker (a crate's face beyond the map's
+// range).
+TEST(TrackerLabels, AWalkerBackBesideItsLostTrackStartsDynamic) {
+  struct Case {
+    float inherit_time, offset, static_share, height;
+    std::size_t reacquire_frames;
+    bool dynamic;
+  };
+  for (const Case c : {Case{0.5f, 0.4f, 0.f, 1.7f, 15, true}, Case{0.5f, 0.4f, 0.f, 1.7f, 0, true},
+                       Case{0.f, 0.4f, 0.f, 1.7f, 15, false}, Case{0.f, 0.4f, 0.f, 1.7f, 0, false},
+                       Case{0.5f, 2.f, 0.f, 1.7f, 0, false}, Case{0.5f, 0.4f, 1.f, 1.7f, 0, false},
+                       Case{0.5f, 0.4f, 0.f, 1.1f, 0, false}}) {
+    TrackerConfig config;
+    config.inherit_time = c.inherit_time;
+    config.reacquire_frames = c.reacquire_frames;
+    auto tracker = make_tracker(config);
+    CrossingWalker walker{*tracker};
+    while (walker.frame < 40) ASSERT_EQ(walker.seen(), Status::kOk);
+    ASSERT_TRUE(tracker->obstacle(0).dynamic);
+    const std::uint32_t id = tracker->obstacle(0).id;
+    for (int gap = 0; gap < 8; ++gap) ASSERT_EQ(walker.hidden(), Status::kOk);
+    for (int f = 0; f < 12; ++f) {
+      const Eigen::Vector3f at =
+          CrossingWalker::at(walker.frame++) + Eigen::Vector3f(c.offset, 0, 0);
+      Detection d = detection(Eigen::Vector3f(at.x(), at.y(), 0.5f * c.height),
+                              Eigen::Vector3f(kPerson.x(), kPerson.y(), c.height));
+      d.static_share = c.static_share;
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), walker.stamp += kFrame), Status::kOk);
+      ASSERT_EQ(tracker->size(), 1u);  // the old track is dormant (unpublished) or dropped
+      ASSERT_GT(tracker->obstacle(0).id, id);
+      if (f == 0) {  // the lost track's velocity (1 m/s along +y) as the first guess, or none
+        EXPECT_NEAR(tracker->obstacle(0).velocity.y(), c.dynamic ? 1.f : 0.f, 0.1f);
+      }
+      if (f < 6 || c.dynamic) {  // before the first vote, or on every frame
+        EXPECT_EQ(tracker->obstacle(0).dynamic, c.dynamic)
+            << "time " << c.inherit_time << " offset " << c.offset << " height " << c.height
+            << " reacquire " << c.reacquire_frames << " frame " << f;
+      }
+    }
+  }
+}
+
 // A walker tracked at 30 Hz, then the next frame comes an hour later without it: its track is
 // not extrapolated across the gap (it would be ~3.6 km further on) and kept, it ends.
 TEST(TrackerAssociation, ATimeGapLongerThanMaxCoastTimeEndsTheTrack) {

@@ -1,9 +1,11 @@
 // The static/dynamic label of one track as a state machine (docs/tracker.md, "Static or
 // dynamic"). The tracker turns each frame into events; this class alone decides the label:
 //
-//   start(e)    -> kDynamic if the ever-free run is already long enough, else kStatic
-//   measured(e) -> kDynamic    on evidence: T_c of c votes, an early run of dynamic votes, or an
-//                              ever-free run (before the first vote: the ever-free run only)
+//   start(e)    -> kDynamic if the ever-free run is already long enough or the detection
+//                  follows a lost dynamic track (within range, plausible size), else kStatic
+//   measured(e) -> kDynamic    on evidence: T_c of c votes, an early run of dynamic votes, an
+//                              ever-free run (before the first vote: the ever-free run only),
+//                              or a label from a lost track not yet contradicted
 //               -> kHeld       no evidence, hold allowed (labelled dynamic on enough frames) and
 //                              either already holding or slower than v_min; up to hold frames
 //               -> kHoldSpent  no evidence, the hold ran out: static until new evidence
@@ -93,6 +95,10 @@ struct LabelEvidence {
   /// its box moves with the view and the occluders. No vote, and the runs and the label stay as
   /// they were (neither extended nor ended).
   bool view_bounded = false;
+  /// Read at start(): the detection lies where a track labelled dynamic was lost a moment ago
+  /// (TrackerConfig::inherit_time). The new track starts labelled dynamic within
+  /// early_max_depth, and keeps the label while every vote is dynamic and no frame is missed.
+  bool follows_lost_dynamic = false;
 };
 
 /// The states of LabelState: why a track carries its label.
@@ -136,6 +142,8 @@ class LabelState {
   bool missed_after_vote_ = false;    ///< a missed frame since the first vote
   bool young_run_allowed_ = false;    ///< started late enough for LabelConfig::early_while_young
   bool early_run_beyond_range_ = false;  ///< an early run beyond early_max_depth (not labelled)
+  /// Started from a lost dynamic track's label; ends with a static vote or a missed frame.
+  bool inherited_ = false;
 };
 
 }  // namespace dynamap

@@ -41,6 +41,24 @@ struct TrackerConfig {
   /// it up again with its id, label and history. A walker hidden for a moment by another or a
   /// pillar otherwise came back as a new track that had to earn its label again.
   std::size_t reacquire_frames = 15;
+  /// A new track whose first detection lies where a track labelled dynamic at its last
+  /// measurement was lost at most this long ago (s; dropped, or coasting unmatched) starts
+  /// labelled dynamic, until a static vote or a missed frame (LabelEvidence::follows_lost_dynamic;
+  /// 0: off), with the lost track's velocity as its filter's first guess (the initial velocity
+  /// covariance unchanged). A walker hidden for a moment often comes back away from its track's
+  /// prediction (a sliver stepping out from behind someone, a turn while hidden), beyond the
+  /// association gate, and as a new track it had to earn its label again: seven frames before
+  /// its first vote, with a velocity starting from zero.
+  float inherit_time = 0.5f;
+  /// ... "where": within this distance (m) of the lost track's last measured centre moved on at
+  /// its velocity, plus inherit_radius_growth for every second since that measurement.
+  float inherit_radius = 0.5f;
+  float inherit_radius_growth = 0.5f;  ///< m/s: the lost track's velocity is a guess that ages
+  /// ... and the detection's height differs from the lost track's by at most this (m): a
+  /// walker's head stays in view as it steps out from behind someone or something, while the
+  /// face of the crate a walker went behind, which nothing in the map may mark as static beyond
+  /// its range, is lower.
+  float inherit_height_tolerance = 0.3f;
   /// Seconds a track may go unmeasured, whatever the frame count: at the next frame later than
   /// this after its last measurement it is dropped before it is predicted, so a time gap in
   /// the input (a stalled sensor) ends coasting instead of extrapolating across it. At 30 Hz,
@@ -237,6 +255,7 @@ class Tracker {
     HistoryRing<Eigen::Vector4f, kMaxTrackHistory> edges;  // detection boxes' top-view min, max
     HistoryRing<Pose, kMaxTrackHistory> views;             // camera pose of each measured frame
     Eigen::Vector2f last_measured = Eigen::Vector2f::Zero();
+    Eigen::Vector2f last_measured_velocity = Eigen::Vector2f::Zero();  // the filter's, then
     Stamp last_measured_stamp = 0;
     float z_center = 0.f;
     Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
@@ -248,6 +267,14 @@ class Tracker {
     bool active = false;
     bool seen_in_full = false;  // a detection fully in view has been measured (not only cut)
     bool dormant = false;  // beyond max_missed_frames, kept for reacquire_frames, not published
+    bool dynamic_when_measured = false;  // the label after the last measured frame
+  };
+  /// Where a track labelled dynamic at its last measurement was lost (inherit_time).
+  struct LostTrack {
+    Eigen::Vector2f position = Eigen::Vector2f::Zero();  // last measured centre
+    Eigen::Vector2f velocity = Eigen::Vector2f::Zero();
+    float height = 0.f;
+    Stamp last_measured_stamp = 0;
   };
   using Measurement = detail::TrackMeasurement;
   using Pair = detail::TrackPair;
@@ -285,6 +312,12 @@ class Tracker {
     return det.static_share > config_.max_static_share;
   }
   void publish() noexcept;
+  /// Deactivates a track and counts it; one labelled dynamic when last measured is remembered.
+  void drop_track(Track& t) noexcept;
+  /// The detection (measured as m) lies where a track labelled dynamic was lost a moment ago;
+  /// *velocity is then the nearest such track's last measured velocity.
+  bool follows_lost_dynamic(const Measurement& m, Stamp stamp,
+                            Eigen::Vector2f* velocity) const noexcept;
 
   TrackerConfig config_{};
   int image_width_ = 0;  ///< of the depth images, from init
@@ -298,6 +331,9 @@ class Tracker {
   Stamp last_stamp_ = 0;
   bool has_stamp_ = false;
   std::size_t frames_processed_ = 0;  ///< updates since clear(), for LabelEvidence::run_frame
+  std::array<LostTrack, kMaxTracks> lost_{};  ///< ring of the latest losses (inherit_time)
+  std::size_t lost_count_ = 0;
+  std::size_t lost_next_ = 0;
   std::uint64_t refused_tracks_ = 0;
   std::uint64_t dropped_tracks_ = 0;
 };
