@@ -32,6 +32,7 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
     }
     return;
   }
+  if (e.slow && slow_frames_ < kMaxLabelCount) ++slow_frames_;
   bool votes_say = false;
   if (e.voted) {
     voter_.push(e.dynamic_vote, continuity);
@@ -41,11 +42,13 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
       inherited_ = false;
     }
     // The early run counts for a track whose votes were all dynamic, one dynamic before (or with
-    // an early run beyond the range), or a young one (window not full, no gap) that started
-    // after the run's first second. It labels only within early_max_depth.
+    // an early run beyond the range), one that stood still, or a young one (window not full, no
+    // gap) that started after the run's first second. It labels only within early_max_depth.
+    const bool stood_still =
+        config.restart_slow_frames > 0 && slow_frames_ >= config.restart_slow_frames;
     const bool early_run =
         config.early_votes > 0 && dynamic_streak_ >= config.early_votes &&
-        (every_vote_dynamic_ || dynamic_frames_ > 0 || early_run_beyond_range_ ||
+        (every_vote_dynamic_ || dynamic_frames_ > 0 || early_run_beyond_range_ || stood_still ||
          (young_run_allowed_ && !missed_after_vote_ && voter_.votes() < continuity.vote_window));
     const bool in_range = config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth;
     if (early_run && !in_range) early_run_beyond_range_ = true;

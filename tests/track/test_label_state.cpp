@@ -293,6 +293,26 @@ TEST_F(LabelStateTest, EarlyRunRelabelsATrackThatWasDynamic) {
   EXPECT_EQ(s.mode(), LabelMode::kDynamic);
 }
 
+// A track that stood still (slower than v_min on restart_slow_frames measured frames) and was
+// never dynamic is labelled by E dynamic votes after a full window of static ones; one that
+// stood still for fewer frames, or with the rule off, waits for T_c of c.
+TEST_F(LabelStateTest, EarlyRunLabelsATrackThatStoodStill) {
+  lc.early_votes = 4;
+  lc.early_while_young = false;
+  for (const std::size_t slow : {std::size_t{20}, std::size_t{14}}) {
+    for (const std::size_t rule : {std::size_t{15}, std::size_t{0}}) {
+      lc.restart_slow_frames = rule;
+      s.start(no_vote(false), lc);
+      measure(vote(false, /*slow=*/true), slow);
+      measure(vote(false), cc.vote_window);  // a full window of static votes
+      measure(vote(true), 3);
+      ASSERT_FALSE(s.dynamic());
+      measure(vote(true));
+      EXPECT_EQ(s.dynamic(), slow >= 15 && rule > 0) << "slow " << slow << " rule " << rule;
+    }
+  }
+}
+
 // A new track where a dynamic track was lost a moment ago starts dynamic and keeps the label
 // through abstentions and dynamic votes; a static vote or a missed frame withdraws it, and so
 // does leaving the early run's range. An implausible size or a start beyond the range gets none.

@@ -390,6 +390,35 @@ LabelRun run_target(Tracker& tracker, int frames, Center&& center_of_frame,
   return run;
 }
 
+// A person standing in view from the first frame for 2 s, then walking off at 1 m/s: labelled
+// within 12 frames of setting off (E dynamic votes once the history shows the motion), not after
+// the vote window's T_c of c as with restart_slow_frames 0.
+TEST(TrackerLabels, APersonWhoStoodStillIsLabelledSoonAfterWalkingOff) {
+  int labelled_after[2] = {-1, -1};
+  for (const int rule : {0, 1}) {
+    TrackerConfig config;
+    config.label.restart_slow_frames = rule != 0 ? 15 : 0;
+    auto tracker = make_tracker(config);
+    std::mt19937 rng(7);
+    std::normal_distribution<float> noise(0.f, 0.015f);
+    Stamp stamp = 0;
+    for (int f = 0; f < 60 + 60; ++f) {
+      const float walked = f < 60 ? 0.f : static_cast<float>(f - 60) / 30.f;
+      const Detection d = detection(Eigen::Vector3f(4.f + noise(rng), walked + noise(rng), 0.85f));
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+      ASSERT_EQ(tracker->size(), 1u);
+      if (f < 60) {
+        ASSERT_FALSE(tracker->obstacle(0).dynamic) << "standing, frame " << f;
+      } else if (labelled_after[rule] < 0 && tracker->obstacle(0).dynamic) {
+        labelled_after[rule] = f - 60;
+      }
+    }
+  }
+  EXPECT_GE(labelled_after[1], 0);
+  EXPECT_LE(labelled_after[1], 12);
+  EXPECT_GT(labelled_after[0], labelled_after[1] + 5) << "without the rule";
+}
+
 TEST(TrackerLabels, NoisyWalkerIsDynamicWithinOneSecond) {
   for (unsigned seed = 1; seed <= 5; ++seed) {
     auto tracker = make_tracker();

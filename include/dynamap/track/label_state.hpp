@@ -56,6 +56,13 @@ struct LabelConfig {
   /// between pillars as the camera flies passed four votes. Beyond it the T_c of c rule decides;
   /// a track with an early run beyond it is then re-labelled like one that was dynamic before.
   float early_max_depth = 5.0f;
+  /// A track measured slower than continuity.min_speed on at least this many frames (it stood
+  /// still) may be labelled by an early run after static votes, like a walker after a pause
+  /// (0: off). A person standing in view from their track's first frame filled the vote window
+  /// with static votes, and walking off waited for T_c of c dynamic votes. Whatever stood on its
+  /// voxels that long left them long occupied, so a static thing's votes there are static
+  /// (TrackerConfig::max_static_share); a walker's votes turn dynamic once it has left them.
+  std::size_t restart_slow_frames = 15;
   /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
   /// observed free (TrackerConfig::ever_free_share) on this many measured frames in a row is
   /// labelled dynamic, whatever its votes: it has moved into empty space. Its size must pass
@@ -137,6 +144,7 @@ class LabelState {
   std::size_t dynamic_streak_ = 0;    ///< dynamic votes in a row on consecutive frames
   std::size_t ever_free_streak_ = 0;  ///< measured frames in a row in ever-free space
   std::size_t dynamic_frames_ = 0;    ///< frames measured() left in kDynamic (saturates)
+  std::size_t slow_frames_ = 0;       ///< measured frames slower than v_min (saturates)
   std::size_t held_frames_ = 0;       ///< measured frames of the current hold (0: none)
   bool every_vote_dynamic_ = true;    ///< no static vote and no missed frame since the first vote
   bool missed_after_vote_ = false;    ///< a missed frame since the first vote
