@@ -59,9 +59,9 @@ struct LabelConfig {
   /// A track measured slower than continuity.min_speed on at least this many frames (it stood
   /// still) may be labelled by an early run after static votes, like a walker after a pause
   /// (0: off). A person standing in view from their track's first frame filled the vote window
-  /// with static votes, and walking off waited for T_c of c dynamic votes. Whatever stood on its
-  /// voxels that long left them long occupied, so a static thing's votes there are static
-  /// (TrackerConfig::max_static_share); a walker's votes turn dynamic once it has left them.
+  /// with static votes, and walking off waited for T_c of c dynamic votes. A static thing is kept
+  /// out by the map's static evidence (TrackerConfig::max_static_share), which a stop shorter
+  /// than refiner.static_frames may not have built yet (docs/tracker.md).
   std::size_t restart_slow_frames = 15;
   /// Ever-free label (0 disables): a track whose detections lay mostly in space the camera had
   /// observed free (TrackerConfig::ever_free_share) on this many measured frames in a row is
