@@ -12,8 +12,8 @@
 namespace dynamap::detail {
 
 inline bool MapIntegrator::end_point(std::uint16_t raw, bool zero_carves, const Eigen::Array4f& dir,
-                                     Eigen::Array4f& end, IndexVec& idx,
-                                     bool& is_hit) const noexcept {
+                                     Eigen::Array4f& end, IndexVec& idx, bool& is_hit,
+                                     float& end_depth) const noexcept {
   float z = static_cast<float>(raw) * g_.depth_scale;
   is_hit = true;
   if (raw == 0) {
@@ -38,9 +38,11 @@ inline bool MapIntegrator::end_point(std::uint16_t raw, bool zero_carves, const 
     }
     if (scale < 1.f) {
       offset *= scale * (1.f - 1e-4f);  // stay just inside so the end voxel is in the region
+      z *= scale * (1.f - 1e-4f);
       is_hit = false;
     }
   }
+  end_depth = z;
   end = g_.origin4 + offset;
   // Inside the local region, so inside the key range (init() bounds the region, integrate()
   // the pose): no range checks needed.
@@ -197,22 +199,23 @@ bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const
   const int v = static_cast<int>(pixel / width);
   Eigen::Array4f end;
   bool end_is_hit = false;
+  float end_depth = 0.f;
   IndexVec last{};
   w.own_surface = false;
+  const std::uint16_t raw = depth.at(u, v);
+  const Eigen::Array4f dir = g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v);
   const std::uint8_t* carve_cells = no_return_row(v);
   const bool zero_carves = carve_cells != nullptr && carve_cells[u / kNoReturnCellPixels] != 0;
-  if (!end_point(depth.at(u, v), zero_carves,
-                 g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v), end, last,
-                 end_is_hit)) {
-    return false;
-  }
+  if (!end_point(raw, zero_carves, dir, end, last, end_is_hit, end_depth)) return false;
   w.own_surface = end_is_hit && from_end && p_->config.keep_own_surface;
-  if (end_is_hit && p_->config.carve_gap_quadratic > 0.f) {
-    if (!stop_short(static_cast<float>(depth.at(u, v)) * g_.depth_scale,
-                    g_.column_dir[static_cast<std::size_t>(u)] + row_direction(v), end, last)) {
-      return false;
-    }
-    end_is_hit = false;  // the walk now ends short of the hit and carves its last voxel
+  // The noise gap protects a measured surface wherever the walk would end: at the hit, and on a
+  // free ray cut at max_depth or the local region when the return lies just beyond the cut (its
+  // surface may lie just within it). Free rays of 0 pixels (no_return_free_depth) have none.
+  const float measured = static_cast<float>(raw) * g_.depth_scale;
+  const float gap = p_->config.carve_gap_quadratic;
+  if (raw != 0 && gap > 0.f && measured - gap * measured * measured < end_depth) {
+    if (!stop_short(measured, dir, end, last)) return false;
+    end_is_hit = false;  // the walk now ends short of the return and carves its last voxel
   }
   // Parameter t in [0, 1] along from_point -> from_point + d. The far part of a ray is its own,
   // the near part mostly what earlier rays (its neighbours in pixel order) already carved, so

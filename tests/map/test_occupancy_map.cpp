@@ -585,6 +585,33 @@ TEST(OccupancyMap, HitRaysStopCarvingTheDepthNoiseShortOfTheirSurface) {
   }
 }
 
+TEST(OccupancyMap, AReturnJustBeyondTheRangeKeepsTheNoiseGapToo) {
+  // A wall 4.95 m ahead, seen three times, then read 5.04 m away (beyond max_depth = 5 m, as
+  // the depth noise puts half its returns at that range). The rays are cut at the range, but
+  // their surface may lie just within it: the walk still stops 0.0084 * 5.04^2 = 0.21 m short
+  // of the return, so the wall's voxel (4.9-5.0 m) keeps its hits. A return from 6.5 m has no
+  // surface within the range and carves up to it, through where the wall stood.
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  const Vec3 wall_voxel(4.95f, 0, 1), in_front(4.55f, 0, 1);
+  for (const float later : {5.04f, 6.5f}) {
+    SCOPED_TRACE(later);
+    auto map = make_map();
+    Stamp t = 0;
+    for (int f = 0; f < 3; ++f) {
+      ASSERT_EQ(map->integrate(render(wall_scene(4.95f), cam, pose).view, cam, pose, t += kFrameNs),
+                Status::kOk);
+    }
+    ASSERT_EQ(map->state(wall_voxel), Occupancy::kOccupied);
+    const DepthImage beyond = render(wall_scene(later), cam, pose);
+    for (int f = 0; f < 10; ++f) {
+      ASSERT_EQ(map->integrate(beyond.view, cam, pose, t += kFrameNs), Status::kOk);
+    }
+    EXPECT_EQ(map->state(in_front), Occupancy::kFree);
+    EXPECT_EQ(map->state(wall_voxel), later < 5.2f ? Occupancy::kOccupied : Occupancy::kFree);
+  }
+}
+
 /// `clean` with the sensor's depth noise: Gaussian, sigma = 0.0042 z^2 (a stereo camera's
 /// 0.08 px disparity noise; dynamap-sim's model).
 void add_depth_noise(const DepthImage& clean, std::uint64_t& rng, DepthImage& out) {

@@ -29,7 +29,7 @@ inline constexpr Param<OccupancyMapConfig> kOccupancyMap[] = {
     {DYNAMAP_PARAM(OccupancyMapConfig, min_depth), X, "m", 0, kInf, kClosed, kOpen, "nearer measurements are dropped"},
     {DYNAMAP_PARAM(OccupancyMapConfig, max_depth), U, "m", 0, kInf, kOpen, kOpen, "map range: deeper pixels carve free space up to this depth only"},
     {DYNAMAP_PARAM(OccupancyMapConfig, no_return_free_depth), X, "m", 0, kInf, kClosed, kOpen, "0: a pixel with no measurement (0) is unknown; d > 0: 0 pixels inside large no-return regions (sky, a hall beyond range) carve free space up to d (<= map.max_depth)"},
-    {DYNAMAP_PARAM(OccupancyMapConfig, carve_gap_quadratic), U, "1/m", 0, kInf, kClosed, kOpen, "a hit ray carves no voxel within this x depth^2 of its end point: two sigma of the camera's depth noise (0: up to the end voxel)"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, carve_gap_quadratic), U, "1/m", 0, kInf, kClosed, kOpen, "a ray carves no voxel within this x depth^2 of its measured return, also one cut at map.max_depth: two sigma of the camera's depth noise (0: up to the end voxel)"},
     {DYNAMAP_PARAM(OccupancyMapConfig, keep_own_surface), X, "", 0, 1, kClosed, kClosed, "a hit ray does not carve the occupied voxels next to its end (its own surface seen at a grazing angle)"},
     {DYNAMAP_PARAM(OccupancyMapConfig, own_surface_min_frames), X, "frames", 0, 65535, kClosed, kClosed, "map.keep_own_surface spares only voxels occupied at least this long (0: any)"},
     {DYNAMAP_PARAM(OccupancyMapConfig, pixel_margin), X, "px", 0, kMaxImageHeight, kClosed, kClosed, "image border left out of the map update"},

@@ -57,10 +57,11 @@ struct OccupancyMapConfig {
   /// and the 8 around it nearly all 0, as sky or a hall beyond range) carves free space up to
   /// camera depth d (<= max_depth). Default 0: never (docs/occupancy_map.md, "No return").
   float no_return_free_depth = 0.f;
-  /// A hit ray carves no voxel any part of which lies within carve_gap_quadratic * z^2 (m, z its
-  /// camera depth) of its end point. Depth noise puts returns behind their surface; the last
-  /// stretch of such a ray runs through the surface's own voxels. Default: 2 sigma of a stereo
-  /// camera's noise (0.0042 z^2; 13 cm at 4 m). 0: up to the end voxel (docs/occupancy_map.md).
+  /// A ray carves no voxel any part of which lies within carve_gap_quadratic * z^2 (m, z its
+  /// measured camera depth) of its return, also when cut at max_depth just short of it. Depth
+  /// noise puts returns behind their surface; the last stretch of such a ray runs through the
+  /// surface's own voxels. Default: 2 sigma of a stereo camera's noise (0.0042 z^2; 13 cm at
+  /// 4 m). 0: up to the end voxel (docs/occupancy_map.md).
   float carve_gap_quadratic = 0.0084f;
   /// A hit ray does not carve the occupied voxels it crosses next to its end (walked from the
   /// end, until its first voxel that is not occupied): at a grazing angle the last stretch of a

@@ -87,10 +87,11 @@ class MapIntegrator {
   LocalGrid local_grid() noexcept;
   Block* local_block(const LocalGrid& g, std::int32_t bi, std::int32_t bj,
                      std::int32_t bk) noexcept;
-  // A ray's end point and end voxel (clipped to the local region). Pass 2 calls this; pass 1
-  // does the same float operations four pixels at a time, so both agree bit for bit.
+  // A ray's end point, end voxel (clipped to the local region) and the camera depth there. Pass 2
+  // calls this; pass 1 does the same float operations four pixels at a time, so both agree bit
+  // for bit.
   bool end_point(std::uint16_t raw, bool zero_carves, const Eigen::Array4f& dir,
-                 Eigen::Array4f& end, IndexVec& idx, bool& is_hit) const noexcept;
+                 Eigen::Array4f& end, IndexVec& idx, bool& is_hit, float& end_depth) const noexcept;
   Eigen::Array4f row_direction(int v) const noexcept {
     return ((static_cast<float>(v) - g_.cy) * g_.inv_fy) * g_.down_dir + g_.forward_dir;
   }
