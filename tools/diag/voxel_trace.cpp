@@ -56,8 +56,9 @@ void list_rays(const Image16& depth, const OccupancyMapConfig& m, const CameraIn
       const std::uint16_t raw = depth.pixels[at];
       const double z = raw * static_cast<double>(cam.depth_scale);
       if (raw == 0 || z < m.min_depth) continue;  // no measurement: neither hits nor carves
-      // A hit carves up to the noise gap short of its end; beyond the range, up to the range.
-      const double carve = z <= m.max_depth ? z - m.carve_gap_quadratic * z * z : m.max_depth;
+      // Up to the noise gap short of the return, and no further than the range.
+      const double carve =
+          std::min(z - m.carve_gap_quadratic * z * z, static_cast<double>(m.max_depth));
       auto world = [&](double d) {
         const Eigen::Vector3d p((u - cam.cx) / cam.fx * d, (v - cam.cy) / cam.fy * d, d);
         return Eigen::Vector3d(pose.rotation * p + c);
