@@ -63,11 +63,21 @@ void list_rays(const Image16& depth, const OccupancyMapConfig& m, const CameraIn
         const Eigen::Vector3d p((u - cam.cx) / cam.fx * d, (v - cam.cy) / cam.fy * d, d);
         return Eigen::Vector3d(pose.rotation * p + c);
       };
-      if (!segment_crosses(c, world(carve), lo, hi)) continue;
+      const Eigen::Vector3d stop = world(carve);
+      if (!segment_crosses(c, stop, lo, hi)) continue;
       if (n++ < kListedRays) {
         const Eigen::Vector3d e = world(z);
-        std::printf("    pixel (%d, %d) depth %.3f m, end (%.2f, %.2f, %.2f)\n", u, v, z, e.x(),
-                    e.y(), e.z());
+        // miss_max_offset: how far the ray's line passes from the centre, and what the map
+        // allows there (occupancy_map.md, "A ray clipping a voxel"), in voxel edges.
+        const Eigen::Vector3d dir = (stop - c).normalized();
+        const Eigen::Vector3d off = centre - c;
+        const double offset = off.cross(dir).norm() / res;
+        const double allowed = std::max(static_cast<double>(m.miss_max_offset),
+                                        m.miss_offset_spread * off.dot(dir) / (stop - c).norm());
+        std::printf(
+            "    pixel (%d, %d) depth %.3f m, end (%.2f, %.2f, %.2f), passes %.2f voxel edges "
+            "from the centre (allowed %.2f)\n",
+            u, v, z, e.x(), e.y(), e.z(), offset, allowed);
       }
     }
   }
