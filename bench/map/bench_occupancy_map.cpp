@@ -191,6 +191,7 @@ void BM_Dynamap(benchmark::State& state) {
   cfg.merge_rays_per_voxel = state.range(0) != 0;
   cfg.free_ray_early_stop = static_cast<int>(state.range(1));
   if (state.range(2) == 0) cfg.carve_gap_quadratic = 0.f;  // carve to the end voxel, as OctoMap
+  if (state.range(3) == 0) cfg.miss_max_offset = 0.f;      // lower every voxel crossed, as OctoMap
   cfg.max_voxel_visits_per_frame = 20'000'000;             // measure the work, do not cap it
   auto map = std::make_unique<OccupancyMap>();
   if (!dynamap::ok(map->init(cfg))) state.SkipWithError("init failed");
@@ -212,15 +213,17 @@ void BM_Dynamap(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(visits), benchmark::Counter::kAvgIterations);
   state.counters["mem_MB"] = static_cast<double>(map->memory_bytes()) / 1e6;
 }
-// Exact walk and early stop, with and without the noise gap, next to each other, so one run
-// gives every median (same-run ratios under the same load). OctoMap's peer is the exact walk
-// without the gap (merge:1/early_stop:0/gap:0); the defaults are merge:1/early_stop:12/gap:1.
+// Exact walk and early stop, with and without the noise gap and the centre rule
+// (miss_max_offset), next to each other, so one run gives every median (same-run ratios under
+// the same load). OctoMap's peer is the exact walk without either
+// (merge:1/early_stop:0/gap:0/centre:0); the defaults are merge:1/early_stop:12/gap:1/centre:1.
 BENCHMARK(BM_Dynamap)
-    ->ArgNames({"merge", "early_stop", "gap"})
-    ->Args({1, 0, 0})
-    ->Args({1, kEarlyStop, 1})
-    ->Args({1, kEarlyStop, 0})
-    ->Args({0, 0, 0})
+    ->ArgNames({"merge", "early_stop", "gap", "centre"})
+    ->Args({1, 0, 0, 0})
+    ->Args({1, kEarlyStop, 1, 1})
+    ->Args({1, kEarlyStop, 1, 0})
+    ->Args({1, kEarlyStop, 0, 0})
+    ->Args({0, 0, 0, 0})
     ->Unit(benchmark::kMillisecond);
 
 /// Tiled carving on a team of threads (as the pipeline lends the map its team), next to the
@@ -322,14 +325,17 @@ struct RunResult {
   std::uint64_t checksum = 0;  // map state after the run (bit-exactness check across versions)
 };
 
-/// The exact walks (early_stop 0) carve to the end voxel as OctoMap does (no noise gap); the
-/// early-stop run is the library's defaults.
+/// The exact walks (early_stop 0) carve to the end voxel and lower every voxel they cross, as
+/// OctoMap does (no noise gap, no centre rule); the early-stop run is the library's defaults.
 RunResult run_dynamap(bool merge, int early_stop, int passes) {
   const Dataset& d = dataset();
   OccupancyMapConfig cfg = d.config;
   cfg.merge_rays_per_voxel = merge;
   cfg.free_ray_early_stop = early_stop;
-  if (early_stop == 0) cfg.carve_gap_quadratic = 0.f;
+  if (early_stop == 0) {
+    cfg.carve_gap_quadratic = 0.f;
+    cfg.miss_max_offset = 0.f;
+  }
   if (!merge) cfg.max_voxel_visits_per_frame = 20'000'000;
   auto map = std::make_unique<OccupancyMap>();
   if (!dynamap::ok(map->init(cfg))) std::abort();

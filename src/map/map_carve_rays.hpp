@@ -28,6 +28,7 @@ void MapIntegrator::carve_rays(std::size_t begin, std::size_t end, const DepthVi
     k.visits += steps;
     cursor.run = 0;
     cursor.surface = w.own_surface;
+    cursor.ray = &w;
     const std::size_t left = detail::walk_ray<kBlockBits>(w, steps, cursor);
     if (left > 0) {
       // The voxels after the stopping one were never looked at: back to the budget.

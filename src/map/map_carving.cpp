@@ -222,6 +222,19 @@ bool MapIntegrator::start_ray(std::uint32_t pixel, const DepthView& depth, const
   // that is where the early-stop walk, which goes backwards, can stop.
   const Eigen::Array4f from_point = from_end ? end : g_.origin4;
   const Eigen::Array4f d = from_end ? Eigen::Array4f(g_.origin4 - end) : end - g_.origin4;
+  if (p_->config.miss_max_offset > 0.f) {
+    // The line from the camera towards the end, whichever way the walk goes.
+    const Eigen::Array4f out = end - g_.origin4;
+    const float length = out.head<3>().matrix().norm();
+    const float inv = length > 0.f ? 1.f / length : 0.f;
+    w.px = g_.origin4[0];
+    w.py = g_.origin4[1];
+    w.pz = g_.origin4[2];
+    w.ux = out[0] * inv;
+    w.uy = out[1] * inv;
+    w.uz = out[2] * inv;
+    w.inv_length = inv;
+  }
   const IndexVec& from = from_end ? last : camera;
   const IndexVec& to = from_end ? camera : last;
   const auto axis = [&](std::size_t a, std::int32_t& i, std::int32_t& s, std::int32_t& r,
@@ -255,13 +268,30 @@ struct MapIntegrator::SequentialCursor {
   const std::uint16_t hit_stamp, miss_stamp;
   const std::int32_t q_miss, q_min, q_occupied;
   const std::uint32_t stop_after;
-  const std::uint16_t now_tick, min_age_ticks;
+  const std::uint16_t now_tick, min_age_ticks, static_ticks;
+  const float near, spread;  // miss_max_offset, miss_offset_spread in m (near 0: off)
   Block* block = nullptr;
   std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
   std::uint32_t run = 0;       // consecutive voxels found missed this frame (early stop)
   bool surface = false;        // still on the ray's own surface (keep_own_surface)
+  const RayWalk* ray = nullptr;
+  std::int32_t bi_ = 0, bj_ = 0, bk_ = 0;
 
+  /// miss_max_offset: the ray passes too far from the centre of a voxel never observed or
+  /// static (occupied long enough).
+  bool passes_aside(const Voxel& vx, std::int32_t li) const noexcept {
+    return near > 0.f &&
+           (vx.log_odds == kUnknown ||
+            on_own_surface(false, vx.log_odds, q_occupied,
+                           block->occupied_since[static_cast<std::size_t>(li)], now_tick,
+                           static_ticks)) &&
+           detail::passes_aside<kBlockBits>(*ray, bi_, bj_, bk_, li, map.p_->resolution, near,
+                                            spread);
+  }
   void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t n) noexcept {
+    bi_ = bi;
+    bj_ = bj;
+    bk_ = bk;
     block = map.local_block(grid, bi, bj, bk);
     if (block != nullptr) return;
     // Visits there are counted as dropped updates; the sink's stamps all read "hit this frame",
@@ -310,11 +340,11 @@ struct MapIntegrator::SequentialCursor {
       const std::uint16_t stamp = vx.stamp;
       if (stamp == miss_stamp) return ++run == stop_after;
       run = 0;
-      if (stamp != hit_stamp) miss(vx);
+      if (stamp != hit_stamp && !passes_aside(vx, li)) miss(vx);
     } else {
       // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most visits
       // (near the camera) find the voxel already updated this frame.
-      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u) miss(vx);
+      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u && !passes_aside(vx, li)) miss(vx);
     }
     return false;
   }
@@ -339,7 +369,10 @@ void MapIntegrator::carve_free_space(const DepthView& depth) noexcept {
                                       p_->q_occupied,
                                       static_cast<std::uint32_t>(p_->config.free_ray_early_stop),
                                       store_->since_tick(),
-                                      own_surface_min_ticks()};
+                                      own_surface_min_ticks(),
+                                      static_min_ticks(),
+                                      miss_near(),
+                                      miss_spread()};
   carve_rays<kEarlyStop>(0, rays, depth, camera, cursor, k);
   stats_.rays += k.rays;
   stats_.rays_stopped_early += k.rays_stopped;

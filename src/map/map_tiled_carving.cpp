@@ -26,14 +26,32 @@ struct MapIntegrator::TileCursor {
   const std::uint16_t hit_stamp;
   const std::uint32_t stop_after;
   const std::int32_t q_occupied;
-  const std::uint16_t now_tick, min_age_ticks;
-  const bool read_blocks;  // keep_own_surface: reads voxels pass 1 did not touch
+  const std::uint16_t now_tick, min_age_ticks, static_ticks;
+  const bool read_blocks;    // keep_own_surface, miss_max_offset: reads voxels pass 1 did not touch
+  const float near, spread;  // miss_max_offset, miss_offset_spread in m (near 0: off)
   const Block* block = nullptr;
+  bool unallocated = false;  // block is empty_block_: its voxels were never observed
   std::uint64_t* marks = nullptr;
   std::uint32_t run = 0;
   bool surface = false;  // still on the ray's own surface (keep_own_surface)
+  const RayWalk* ray = nullptr;
+  std::int32_t bi_ = 0, bj_ = 0, bk_ = 0;
 
+  /// As the one walk's cursor: the ray passes too far from the centre of a voxel never observed
+  /// or occupied long enough (miss_max_offset).
+  bool passes_aside(std::int32_t li) const noexcept {
+    const auto at = static_cast<std::size_t>(li);
+    const std::int16_t l = unallocated ? kUnknown : block->voxels[at].log_odds;
+    return near > 0.f &&
+           (l == kUnknown || on_own_surface(false, l, q_occupied, block->occupied_since[at],
+                                            now_tick, static_ticks)) &&
+           detail::passes_aside<kBlockBits>(*ray, bi_, bj_, bk_, li, map.p_->resolution, near,
+                                            spread);
+  }
   void enter(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::size_t) noexcept {
+    bi_ = bi;
+    bj_ = bj;
+    bk_ = bk;
     const auto gi = static_cast<std::uint32_t>(bi - grid.origin[0]);
     const auto gj = static_cast<std::uint32_t>(bj - grid.origin[1]);
     const auto gk = static_cast<std::uint32_t>(bk - grid.origin[2]);
@@ -52,10 +70,15 @@ struct MapIntegrator::TileCursor {
       const Block* stored = static_cast<const BlockStore*>(map.store_)->find(bi, bj, bk);
       if (stored != nullptr) block = stored;
     }
+    unallocated = block == &map.empty_block_;
     std::uint16_t& set = tile.slot_of_cell[cell];
     if (set == 0) {
       tile.cells[tile.cell_count] = static_cast<std::uint16_t>(cell);
       tile.marks[tile.cell_count].fill(0);
+      // The one walk allocates every block it enters. Without miss_max_offset every voxel of
+      // a new block is marked; with it a ray may pass all of them aside, and the block is
+      // still acquired, as there.
+      tile.nonempty[tile.cell_count] = unallocated && near > 0.f ? 1 : 0;
       set = static_cast<std::uint16_t>(++tile.cell_count);
     }
     marks = tile.marks[set - 1u].data();
@@ -82,7 +105,9 @@ struct MapIntegrator::TileCursor {
       return false;
     }
     run = 0;
-    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp) word |= bit;
+    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp && !passes_aside(li)) {
+      word |= bit;
+    }
     return false;
   }
 };
@@ -108,12 +133,15 @@ void MapIntegrator::carve_tile(std::size_t t, const DepthView& depth) noexcept {
                                 p_->q_occupied,
                                 store_->since_tick(),
                                 own_surface_min_ticks(),
-                                p_->config.keep_own_surface};
+                                static_min_ticks(),
+                                p_->config.keep_own_surface || p_->config.miss_max_offset > 0.f,
+                                miss_near(),
+                                miss_spread()};
   carve_rays<kEarlyStop>(tile.ray_begin, tile.ray_end, depth, camera, cursor, tile.counters);
   for (std::size_t s = 0; s < tile.cell_count; ++s) {
     std::uint64_t any = 0;
     for (const std::uint64_t w : tile.marks[s]) any |= w;
-    tile.nonempty[s] = any != 0 ? 1 : 0;
+    if (any != 0) tile.nonempty[s] = 1;
   }
 }
 

@@ -139,7 +139,34 @@ struct RayWalk {
   float dx, dy, dz;         ///< t between boundaries per axis
   std::size_t visits;       ///< voxels to visit, the first one included
   bool own_surface;         ///< walked from a hit's end, sparing its own surface (keep_own_surface)
+  float px, py, pz;         ///< a point of the ray's line (m; set with miss_max_offset only)
+  float ux, uy, uz;         ///< the line's unit direction
+  float inv_length;         ///< 1 / the distance from the camera to the ray's end (1/m)
 };
+
+/// True when the line of `w` passes farther from the centre of voxel `li` (index inside its
+/// block) of block (bi, bj, bk) than max(near, spread x t / L), t the centre's distance from the
+/// camera along the ray and L the ray's length (all in m). The second term follows the spacing
+/// of the merged rays, one per end voxel, which is about a voxel at the ray's end: there every
+/// ray counts, or voxels between two rays would never be lowered.
+template <int kBits>
+inline bool passes_aside(const RayWalk& w, std::int32_t bi, std::int32_t bj, std::int32_t bk,
+                         std::int32_t li, float resolution, float near, float spread) noexcept {
+  constexpr std::int32_t kEdge = 1 << kBits;
+  constexpr std::int32_t kM = kEdge - 1;
+  const auto centre = [&](std::int32_t b, std::int32_t i) {
+    return (static_cast<float>(b * kEdge + i) + 0.5f) * resolution;
+  };
+  const float vx = centre(bi, li & kM) - w.px;
+  const float vy = centre(bj, (li >> kBits) & kM) - w.py;
+  const float vz = centre(bk, (li >> (2 * kBits)) & kM) - w.pz;
+  const float cx = vy * w.uz - vz * w.uy;
+  const float cy = vz * w.ux - vx * w.uz;
+  const float cz = vx * w.uy - vy * w.ux;
+  const float along = (vx * w.ux + vy * w.uy + vz * w.uz) * w.inv_length;
+  const float allowed = std::max(near, spread * along);
+  return cx * cx + cy * cy + cz * cz > allowed * allowed;
+}
 
 /// Walks `n` voxels of `w` (blocks of 2^kBits voxels per edge), calling cursor.enter(bi, bj,
 /// bk, n) on each block entered, cursor.visit(li) on each voxel (li: index inside the block;

@@ -186,6 +186,9 @@ void check_wall(const WallCase& wc) {
   OccupancyMapConfig cfg;
   cfg.merge_rays_per_voxel = wc.merge;
   cfg.free_ray_early_stop = wc.early_stop;
+  // The walk's coverage: with miss_max_offset, voxels at the frustum's edge that only the edge
+  // rays clip stay unknown (ARayClippingALongOccupiedVoxelLowersItOnlyNearItsCentreOrItsEnd).
+  cfg.miss_max_offset = 0.f;
   auto map = make_map(cfg);
   const CameraIntrinsics cam = small_camera();
   const Scene scene = wall_scene(3.03f);
@@ -609,6 +612,58 @@ TEST(OccupancyMap, AReturnJustBeyondTheRangeKeepsTheNoiseGapToo) {
     }
     EXPECT_EQ(map->state(in_front), Occupancy::kFree);
     EXPECT_EQ(map->state(wall_voxel), later < 5.2f ? Occupancy::kOccupied : Occupancy::kFree);
+  }
+}
+
+TEST(OccupancyMap, ARayClippingALongOccupiedVoxelLowersItOnlyNearItsCentreOrItsEnd) {
+  // A wall face at x = 2.05 m, seen for 120 frames, holds the voxel V (2.0-2.1, 0.0-0.1,
+  // 1.0-1.1) occupied long. The wall then stands back at `far`, and one pixel's ray passes V
+  // either near its centre or through its corner (0.57 voxel edges aside). Through the corner,
+  // with the wall 4.05 m away, the ray says little about V's middle and leaves it occupied; at
+  // the other two places, or with the rule off, 20 frames lower V to free. With the wall at
+  // 2.25 m V lies near the ray's end, where merged rays are a voxel apart: every ray counts.
+  const CameraIntrinsics cam = small_camera(640, 480);
+  const Pose pose = make_pose(Vec3(0, 0, 1), 0.f);
+  const Vec3 centre(2.05f, 0.05f, 1.05f);
+  struct Case {
+    float offset_m, far, miss_max_offset;
+    Occupancy expected;
+  };
+  const Case cases[] = {{0.04f, 4.05f, 0.35f, Occupancy::kOccupied},
+                        {0.f, 4.05f, 0.35f, Occupancy::kFree},
+                        {0.04f, 2.25f, 0.35f, Occupancy::kFree},
+                        {0.04f, 4.05f, 0.f, Occupancy::kFree}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(testing::Message()
+                 << "offset " << c.offset_m << " far " << c.far << " rule " << c.miss_max_offset);
+    OccupancyMapConfig cfg;
+    cfg.pixel_stride = 1;
+    cfg.miss_max_offset = c.miss_max_offset;
+    auto map = make_map(cfg);
+    Stamp t = 0;
+    const DepthImage wall = render(wall_scene(2.05f), cam, pose);
+    for (int f = 0; f < 120; ++f) {
+      ASSERT_EQ(map->integrate(wall.view, cam, pose, t += kFrameNs), Status::kOk);
+    }
+    ASSERT_EQ(map->state(centre), Occupancy::kOccupied);
+    // The pixel whose ray passes nearest to the aimed point at x = 2.05 (camera looks along +x).
+    const Vec3 aim = centre + Vec3(0, c.offset_m, c.offset_m) - pose.translation;
+    const int u = static_cast<int>(std::lround(cam.cx - cam.fx * aim.y() / aim.x()));
+    const int v = static_cast<int>(std::lround(cam.cy - cam.fy * aim.z() / aim.x()));
+    const Vec3 dir = pixel_dir(cam, pose, u, v);
+    const Vec3 at = pose.translation + dir * (centre.x() - pose.translation.x());
+    const float off = (at - centre).norm() / 0.1f;  // voxel edges
+    ASSERT_NEAR(off, c.offset_m * 1.41421f / 0.1f, 0.08f);
+    DepthImage one;
+    one.pixels.assign(static_cast<std::size_t>(cam.width * cam.height), 0);
+    one.pixels[static_cast<std::size_t>(v * cam.width + u)] =
+        static_cast<std::uint16_t>(std::lround(c.far / cam.depth_scale));
+    one.view = wall.view;
+    one.view.data = one.pixels.data();
+    for (int f = 0; f < 20; ++f) {
+      ASSERT_EQ(map->integrate(one.view, cam, pose, t += kFrameNs), Status::kOk);
+    }
+    EXPECT_EQ(map->state(centre), c.expected);
   }
 }
 
@@ -1204,6 +1259,7 @@ TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
   cfg.free_ray_early_stop = 0;    // the exact walk (the recorded values predate early stop)
   cfg.carve_gap_quadratic = 0.f;  // and the noise gap
   cfg.keep_own_surface = false;   // and sparing a ray's own surface
+  cfg.miss_max_offset = 0.f;      // and the centre rule
   cfg.pixel_stride = 1;
   const std::uint64_t merged = integrate_walk(cfg, 12);
   cfg.merge_rays_per_voxel = false;
@@ -1213,6 +1269,7 @@ TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
   tiny.free_ray_early_stop = 0;
   tiny.carve_gap_quadratic = 0.f;
   tiny.keep_own_surface = false;
+  tiny.miss_max_offset = 0.f;
   tiny.max_blocks = 96;                      // evicts every frame
   tiny.max_voxel_visits_per_frame = 40'000;  // and hits the visit cap
   const std::uint64_t evicting = integrate_walk(tiny, 12);

@@ -67,6 +67,16 @@ struct OccupancyMapConfig {
   /// end, until its first voxel that is not occupied): at a grazing angle the last stretch of a
   /// ray runs along its own surface's voxel layer, whose voxels the surface only partly fills.
   bool keep_own_surface = true;
+  /// A ray lowers an unknown voxel, or one occupied for 3 x own_surface_min_frames, only when
+  /// it passes within this share of the voxel edge of the voxel's centre (0: every voxel it
+  /// crosses). A ray clipping a pillar's corner, or skimming a box top inside the voxel layer,
+  /// says little about the voxel's middle; younger occupied voxels (a walker's old place) and
+  /// free ones take every miss.
+  float miss_max_offset = 0.35f;
+  /// ... or within this share of the voxel edge times t / L, whichever is larger (t: the voxel's
+  /// distance from the camera along the ray, L: the ray's length): merged rays are about a
+  /// voxel apart at their ends, so near a ray's end the allowance grows to the whole voxel.
+  float miss_offset_spread = 0.71f;
   /// keep_own_surface spares only voxels occupied for at least this many frames (0: any).
   int own_surface_min_frames = 30;
   int pixel_margin = 2, pixel_stride = 2;

@@ -6,6 +6,7 @@
 // src/map/map_carving.cpp, the tiles on the team in src/map/map_tiled_carving.cpp.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstddef>
@@ -157,7 +158,8 @@ class MapIntegrator {
     std::array<std::uint16_t, kMaxTileCells> cells;         ///< cells entered, in order
     std::array<std::array<std::uint64_t, kBlockVoxels / 64>, kMaxTileCells> marks;
     std::array<std::uint64_t, kBlockVoxels / 64> discard;  ///< marks outside the grid (none)
-    std::array<std::uint8_t, kMaxTileCells> nonempty;      ///< mark set holds a mark
+    std::array<std::uint8_t, kMaxTileCells>
+        nonempty;  ///< mark set holds a mark, or its block is to be acquired
     std::size_t cell_count;
     std::size_t ray_begin, ray_end;  ///< its rays in ordered_rays_
     CarveCounters counters;
@@ -173,6 +175,14 @@ class MapIntegrator {
     return static_cast<std::uint16_t>((frames + BlockStore::kSinceTickFrames - 1) /
                                       BlockStore::kSinceTickFrames);
   }
+  /// Age (ticks) from which miss_max_offset treats an occupied voxel as static: three times
+  /// keep_own_surface's, within the ages the store tells apart.
+  std::uint16_t static_min_ticks() const noexcept {
+    return static_cast<std::uint16_t>(
+        std::min<std::uint32_t>(3u * own_surface_min_ticks(), BlockStore::kMaxSinceAgeTicks));
+  }
+  float miss_near() const noexcept { return p_->config.miss_max_offset * p_->resolution; }
+  float miss_spread() const noexcept { return p_->config.miss_offset_spread * p_->resolution; }
   void list_tile_rays(std::size_t tile) noexcept;
   void order_tile_claims() noexcept;
   bool stop_short(float z, const Eigen::Array4f& dir, Eigen::Array4f& end,
