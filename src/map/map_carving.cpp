@@ -281,10 +281,9 @@ struct MapIntegrator::SequentialCursor {
   /// static (occupied long enough).
   bool passes_aside(const Voxel& vx, std::int32_t li) const noexcept {
     return near > 0.f &&
-           (vx.log_odds == kUnknown ||
-            on_own_surface(false, vx.log_odds, q_occupied,
-                           block->occupied_since[static_cast<std::size_t>(li)], now_tick,
-                           static_ticks)) &&
+           centre_rule_applies(vx.log_odds, q_occupied,
+                               block->occupied_since[static_cast<std::size_t>(li)], now_tick,
+                               static_ticks) &&
            detail::passes_aside<kBlockBits>(*ray, bi_, bj_, bk_, li, map.p_->resolution, near,
                                             spread);
   }

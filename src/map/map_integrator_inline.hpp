@@ -13,6 +13,14 @@ inline bool on_own_surface(bool hit, std::int32_t before, std::int32_t q_occupie
   return hit || (before > q_occupied && static_cast<std::uint16_t>(now - since) >= min_age);
 }
 
+/// miss_max_offset: whether a voxel with log-odds `l` (kUnknown: never observed), occupied since
+/// tick `since`, is one a ray lowers only near its centre: unknown, or occupied for at least
+/// `static_age` ticks (static evidence).
+inline bool centre_rule_applies(std::int32_t l, std::int32_t q_occupied, std::uint16_t since,
+                                std::uint16_t now, std::uint16_t static_age) noexcept {
+  return l == kUnknownLogOdds || on_own_surface(false, l, q_occupied, since, now, static_age);
+}
+
 inline MapIntegrator::LocalGrid MapIntegrator::local_grid() noexcept {
   LocalGrid g{grid_origin_, {}, local_grid_.data()};
   if (grid_enabled_) {

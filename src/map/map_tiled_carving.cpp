@@ -40,11 +40,10 @@ struct MapIntegrator::TileCursor {
   /// As the one walk's cursor: the ray passes too far from the centre of a voxel never observed
   /// or occupied long enough (miss_max_offset).
   bool passes_aside(std::int32_t li) const noexcept {
+    if (near <= 0.f) return false;
     const auto at = static_cast<std::size_t>(li);
-    const std::int16_t l = unallocated ? kUnknown : block->voxels[at].log_odds;
-    return near > 0.f &&
-           (l == kUnknown || on_own_surface(false, l, q_occupied, block->occupied_since[at],
-                                            now_tick, static_ticks)) &&
+    return centre_rule_applies(unallocated ? kUnknown : block->voxels[at].log_odds, q_occupied,
+                               block->occupied_since[at], now_tick, static_ticks) &&
            detail::passes_aside<kBlockBits>(*ray, bi_, bj_, bk_, li, map.p_->resolution, near,
                                             spread);
   }
