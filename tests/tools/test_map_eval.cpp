@@ -213,6 +213,19 @@ TEST(MapScore, MapFramesCsvMaximaAndBadRows) {
   EXPECT_TRUE(with_bare.bare_available);
   EXPECT_EQ(with_bare.erased_bare_max, 2u);
   EXPECT_EQ(with_bare.erased_bare_all_max, 3u);
+  EXPECT_FALSE(with_bare.whole_available);
+  write_file(dir / "whole.csv",
+             "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
+             "erased_obstacle_voxels_all,free_through_obstacle_voxels_all,"
+             "erased_obstacle_voxels_bare,erased_obstacle_voxels_bare_all,"
+             "free_through_obstacle_voxels_whole,free_through_obstacle_voxels_whole_all\n"
+             "1.0,3,4,4,6,2,3,1,2\n2.0,1,5,2,7,0,1,0,5\n");
+  eval::MapAccuracy with_whole;
+  eval::read_map_frames(dir / "whole.csv", with_whole);
+  EXPECT_TRUE(with_whole.whole_available);
+  EXPECT_EQ(with_whole.free_through_whole_max, 1u);
+  EXPECT_EQ(with_whole.free_through_whole_all_max, 5u);
+  EXPECT_EQ(with_whole.free_through_max, 5u);
   write_file(dir / "bad.csv",
              "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
              "erased_obstacle_voxels_all,free_through_obstacle_voxels_all\n1.0,0,x,1,5\n");
@@ -288,6 +301,35 @@ TEST(MapFrameChecks, ErasedVoxelIsBareOnlyWithNoOccupiedNeighbour) {
   n = checker.check(*map, far_camera, 3.f);  // the near count follows the camera
   EXPECT_EQ(n.erased_bare_near, 0u);
   EXPECT_EQ(n.erased_bare_all, 2u);
+}
+
+// A free-through voxel is whole when no part of the shape's boundary lies in it. A 4 x 4 x 4
+// voxel box [1.0, 1.4] x [0, 0.4] x [0.5, 0.9] has 8 whole voxels; a box whose top lies inside a
+// voxel layer (z up to 0.88) has its top layer's voxels interior but not whole.
+TEST(MapFrameChecks, FreeThroughVoxelIsWholeOnlyWhenNoBoundaryLiesInIt) {
+  StaticWorld w;
+  w.boxes.push_back(StaticBox{Eigen::Vector3d(1.0, 0.0, 0.5), Eigen::Vector3d(1.4, 0.4, 0.9)});
+  w.boxes.push_back(StaticBox{Eigen::Vector3d(3.0, 0.0, 0.5), Eigen::Vector3d(3.4, 0.4, 0.88)});
+  auto map = std::make_unique<OccupancyMap>();
+  ASSERT_EQ(map->init(OccupancyMapConfig{}), Status::kOk);
+  MapFrameChecker checker(w, *map);
+  EXPECT_EQ(checker.interior_voxels(), 128u);
+  const Eigen::Vector3f camera(2.f, 0.2f, 0.7f), far_camera(20.f, 0.f, 0.7f);
+  const Eigen::Vector3f inner(1.15f, 0.15f, 0.65f);  // all six faces 0.1 m or more away
+  const Eigen::Vector3f face(1.05f, 0.15f, 0.65f);   // holds the face x = 1.0
+  const Eigen::Vector3f top(3.15f, 0.15f, 0.85f);    // centre inside, the top at 0.88 inside
+  const Eigen::Vector3f under(3.15f, 0.15f, 0.75f);  // the layer under that top: whole
+  for (const Eigen::Vector3f& p : {inner, face, top, under})
+    ASSERT_EQ(map->set_log_odds(p, -2.0f), Status::kOk);
+  MapFrameChecker::Counts n = checker.check(*map, camera, 3.f);
+  EXPECT_EQ(n.free_through_near, 4u);
+  EXPECT_EQ(n.free_through_whole_near, 2u);  // inner and under
+  EXPECT_EQ(n.free_through_whole_all, 2u);
+  ASSERT_EQ(map->set_log_odds(under, 2.0f), Status::kOk);
+  n = checker.check(*map, far_camera, 3.f);
+  EXPECT_EQ(n.free_through_whole_near, 0u);
+  EXPECT_EQ(n.free_through_whole_all, 1u);
+  EXPECT_EQ(n.free_through_all, 3u);
 }
 
 // dynamap-replay --static-model on a hand-made map: the model's voxels (a PLY as dynamap-label

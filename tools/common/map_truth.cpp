@@ -159,7 +159,16 @@ MapFrameChecker::MapFrameChecker(const StaticWorld& world, const OccupancyMap& m
     return map.center_of(map.key_of(voxel_centre(v, map.resolution()).cast<float>()));
   };
   for (const auto& v : truth.surface) surface_.push_back(on_map_grid(v));
-  for (const auto& v : truth.interior) interior_.push_back(on_map_grid(v));
+  for (const auto& v : truth.interior) {
+    interior_.push_back(on_map_grid(v));
+    // Both lists are sorted by pack_voxel.
+    const bool on_surface =
+        std::binary_search(truth.surface.begin(), truth.surface.end(), v,
+                           [](const Eigen::Vector3i& a, const Eigen::Vector3i& b) {
+                             return pack_voxel(a) < pack_voxel(b);
+                           });
+    whole_.push_back(on_surface ? 0 : 1);
+  }
   held_.assign(surface_.size(), 0);
   resolution_ = map.resolution();
 }
@@ -194,10 +203,15 @@ MapFrameChecker::Counts MapFrameChecker::check(const OccupancyMap& map,
       if (near) ++n.erased_bare_near;
     }
   }
-  for (const Eigen::Vector3f& c : interior_) {
+  for (std::size_t i = 0; i < interior_.size(); ++i) {
+    const Eigen::Vector3f& c = interior_[i];
     if (map.state(c) != Occupancy::kFree) continue;
+    const bool near = (c - camera).squaredNorm() <= r2;
     ++n.free_through_all;
-    if ((c - camera).squaredNorm() <= r2) ++n.free_through_near;
+    if (near) ++n.free_through_near;
+    if (whole_[i] == 0) continue;
+    ++n.free_through_whole_all;
+    if (near) ++n.free_through_whole_near;
   }
   return n;
 }

@@ -50,7 +50,10 @@ bool near_static_shape(const StaticWorld& world, const Eigen::Vector3i& v, doubl
 /// `near_radius` of the camera (3-D distance to the voxel centre) and over the whole world.
 /// An erased voxel is *bare* when none of its 26 neighbours is held occupied either: there the
 /// surface is gone, not thinned by a voxel (a planner inflating obstacles by a voxel or more
-/// still sees a thinned surface).
+/// still sees a thinned surface). A free-through voxel is *whole* when its whole cube lies inside
+/// a shape (it is an interior voxel and no surface voxel): there the map holds a hole a voxel
+/// deep, not a boundary voxel the shape only partly fills (the top layer of a box whose top lies
+/// inside that layer, crossed by rays just above the top).
 class MapFrameChecker {
  public:
   /// The truth voxels on `map`'s grid (its resolution; centres through key_of / center_of).
@@ -60,6 +63,7 @@ class MapFrameChecker {
     std::size_t erased_near = 0, free_through_near = 0;
     std::size_t erased_all = 0, free_through_all = 0;
     std::size_t erased_bare_near = 0, erased_bare_all = 0;
+    std::size_t free_through_whole_near = 0, free_through_whole_all = 0;
   };
   /// Reads the map only (const queries); remembers which surface voxels are held occupied now.
   Counts check(const OccupancyMap& map, const Eigen::Vector3f& camera, float near_radius);
@@ -71,6 +75,7 @@ class MapFrameChecker {
   bool has_occupied_neighbour(const OccupancyMap& map, const Eigen::Vector3f& centre) const;
 
   std::vector<Eigen::Vector3f> surface_, interior_;
+  std::vector<std::uint8_t> whole_;  ///< interior voxel that is no surface voxel
   float resolution_ = 0.f;
   std::vector<std::uint8_t> held_;  ///< surface voxel held occupied at some check so far
 };

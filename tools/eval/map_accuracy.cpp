@@ -209,15 +209,23 @@ void read_map_frames(const std::string& path, MapAccuracy& r) {
     if (it == header.end()) fail_at(TextLocation{path, 1}, "no column '" + n + "'");
     col.push_back(static_cast<std::size_t>(it - header.begin()));
   }
-  // The bare counts came later: a file without them still scores, without that figure.
+  // The bare and whole counts came later: a file without them still scores, without them.
   const std::vector<std::string> bare_names = {"erased_obstacle_voxels_bare",
                                                "erased_obstacle_voxels_bare_all"};
-  std::vector<std::size_t> bare_col;
-  for (const std::string& n : bare_names) {
-    const auto it = std::find(header.begin(), header.end(), n);
-    if (it != header.end()) bare_col.push_back(static_cast<std::size_t>(it - header.begin()));
-  }
+  const std::vector<std::string> whole_names = {"free_through_obstacle_voxels_whole",
+                                                "free_through_obstacle_voxels_whole_all"};
+  auto columns_of = [&](const std::vector<std::string>& wanted) {
+    std::vector<std::size_t> found;
+    for (const std::string& n : wanted) {
+      const auto it = std::find(header.begin(), header.end(), n);
+      if (it != header.end()) found.push_back(static_cast<std::size_t>(it - header.begin()));
+    }
+    return found;
+  };
+  const std::vector<std::size_t> bare_col = columns_of(bare_names);
+  const std::vector<std::size_t> whole_col = columns_of(whole_names);
   r.bare_available = bare_col.size() == bare_names.size();
+  r.whole_available = whole_col.size() == whole_names.size();
   auto count_at = [&](const std::vector<std::string>& f, std::size_t c, const std::string& name,
                       const TextLocation& at) {
     const long long x = parse_int(f[c], at, name.c_str());
@@ -234,6 +242,12 @@ void read_map_frames(const std::string& path, MapAccuracy& r) {
       r.erased_bare_max = std::max(r.erased_bare_max, count_at(f, bare_col[0], bare_names[0], at));
       r.erased_bare_all_max =
           std::max(r.erased_bare_all_max, count_at(f, bare_col[1], bare_names[1], at));
+    }
+    if (r.whole_available) {
+      r.free_through_whole_max =
+          std::max(r.free_through_whole_max, count_at(f, whole_col[0], whole_names[0], at));
+      r.free_through_whole_all_max =
+          std::max(r.free_through_whole_all_max, count_at(f, whole_col[1], whole_names[1], at));
     }
     r.erased_max = std::max(r.erased_max, v[0]);
     r.free_through_max = std::max(r.free_through_max, v[1]);
@@ -334,6 +348,10 @@ std::string format_map_table(const MapAccuracy& r) {
               std::to_string(r.erased_bare_all_max) + ")");
     row("free through obst. max", std::to_string(r.free_through_max),
         "voxels within 3 m (all range " + std::to_string(r.free_through_all_max) + ")");
+    if (r.whole_available)
+      row("  of them whole, max", std::to_string(r.free_through_whole_max),
+          "the whole voxel inside a shape, not a boundary voxel (all range " +
+              std::to_string(r.free_through_whole_all_max) + ")");
     row("free through obst. final", std::to_string(r.free_through_final),
         "voxels within 3 m at the last frame (all range " +
             std::to_string(r.free_through_final_all) + ")");

@@ -51,6 +51,9 @@ struct MapAccuracy {
   /// Erased voxels with no occupied neighbour (columns absent in older files: not available).
   bool bare_available = false;
   std::size_t erased_bare_max = 0, erased_bare_all_max = 0;
+  /// Free-through voxels wholly inside a shape (columns absent in older files: not available).
+  bool whole_available = false;
+  std::size_t free_through_whole_max = 0, free_through_whole_all_max = 0;
   std::string settings;  ///< where the sampling and range settings came from
 };
 

@@ -487,6 +487,9 @@ std::string map_json(const MapAccuracy& m) {
   auto bare = [&](std::size_t v) {
     return m.frames_available && m.bare_available ? std::to_string(v) : std::string("null");
   };
+  auto whole = [&](std::size_t v) {
+    return m.frames_available && m.whole_available ? std::to_string(v) : std::string("null");
+  };
   o << "  \"sa\": " << json_num(m.sa) << ",\n"
     << "  \"sa_strict\": " << json_num(m.sa_strict) << ",\n"
     << "  \"sa_shapes\": " << json_num(m.sa_shapes) << ",\n"
@@ -499,6 +502,8 @@ std::string map_json(const MapAccuracy& m) {
     << "  \"erased_bare_max\": " << bare(m.erased_bare_max) << ",\n"
     << "  \"erased_bare_all_max\": " << bare(m.erased_bare_all_max) << ",\n"
     << "  \"free_through_all_max\": " << frames(m.free_through_all_max) << ",\n"
+    << "  \"free_through_whole_max\": " << whole(m.free_through_whole_max) << ",\n"
+    << "  \"free_through_whole_all_max\": " << whole(m.free_through_whole_all_max) << ",\n"
     << "  \"free_through_final\": " << frames(m.free_through_final) << ",\n"
     << "  \"map\": {\"static_observed\": " << m.static_observed
     << ", \"static_held\": " << m.static_held

@@ -38,6 +38,10 @@ const Metric kMetrics[] = {
     {"erased_bare_max", "erased obstacle voxels, bare, within 3 m (worst frame)", false},
     // Inside of a static shape held free (issue 28's goal: 0 within 3 m in every frame).
     {"free_through_max", "free through obstacle voxels within 3 m (worst frame)", false},
+    // Of those, voxels wholly inside a shape: a hole a voxel deep, not a partly filled boundary
+    // voxel.
+    {"free_through_whole_max", "free through obstacle voxels, whole, within 3 m (worst frame)",
+     false},
     {"position_error_m", "position error (m)", false},
     {"velocity_error_mps", "velocity error (m/s)", false},
     {"prediction_failure_ratio", "prediction failure ratio, Markov", false},

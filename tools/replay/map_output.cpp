@@ -76,7 +76,8 @@ MapFrameLog::MapFrameLog(const StaticWorld& world, const OccupancyMap& map,
   if (!csv_) throw ToolError(path_ + ": cannot open for writing");
   csv_ << "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,erased_obstacle_voxels_all,"
           "free_through_obstacle_voxels_all,erased_obstacle_voxels_bare,"
-          "erased_obstacle_voxels_bare_all\n";
+          "erased_obstacle_voxels_bare_all,free_through_obstacle_voxels_whole,"
+          "free_through_obstacle_voxels_whole_all\n";
 }
 
 void MapFrameLog::record(const OccupancyMap& map, const std::string& stamp_text,
@@ -91,24 +92,26 @@ void MapFrameLog::record(const OccupancyMap& map, const std::string& stamp_text,
   max_.free_through_all = std::max(max_.free_through_all, n.free_through_all);
   max_.erased_bare_near = std::max(max_.erased_bare_near, n.erased_bare_near);
   max_.erased_bare_all = std::max(max_.erased_bare_all, n.erased_bare_all);
+  max_.free_through_whole_near = std::max(max_.free_through_whole_near, n.free_through_whole_near);
+  max_.free_through_whole_all = std::max(max_.free_through_whole_all, n.free_through_whole_all);
   csv_ << stamp_text << "," << n.erased_near << "," << n.free_through_near << "," << n.erased_all
-       << "," << n.free_through_all << "," << n.erased_bare_near << "," << n.erased_bare_all
-       << "\n";
+       << "," << n.free_through_all << "," << n.erased_bare_near << "," << n.erased_bare_all << ","
+       << n.free_through_whole_near << "," << n.free_through_whole_all << "\n";
   if (!csv_) throw ToolError(path_ + ": write error");
 }
 
 std::string MapFrameLog::summary() const {
   char buf[512];
-  std::snprintf(buf, sizeof(buf),
-                "map checks: %zu surface + %zu interior truth voxels, worst frame within %.0f m: "
-                "%zu erased obstacle (%zu bare), %zu free through obstacle voxels (all range %zu, "
-                "%zu); "
-                "added time %.3f ms/frame (+%.1f ms setup)",
-                checker_.surface_voxels(), checker_.interior_voxels(),
-                static_cast<double>(kMapCheckNearRadius), max_.erased_near, max_.erased_bare_near,
-                max_.free_through_near, max_.erased_all, max_.free_through_all,
-                frames_ > 0 ? 1e3 * seconds_ / static_cast<double>(frames_) : 0.0,
-                1e3 * setup_seconds_);
+  std::snprintf(
+      buf, sizeof(buf),
+      "map checks: %zu surface + %zu interior truth voxels, worst frame within %.0f m: "
+      "%zu erased obstacle (%zu bare), %zu free through obstacle voxels (%zu whole; all "
+      "range %zu, %zu); "
+      "added time %.3f ms/frame (+%.1f ms setup)",
+      checker_.surface_voxels(), checker_.interior_voxels(),
+      static_cast<double>(kMapCheckNearRadius), max_.erased_near, max_.erased_bare_near,
+      max_.free_through_near, max_.free_through_whole_near, max_.erased_all, max_.free_through_all,
+      frames_ > 0 ? 1e3 * seconds_ / static_cast<double>(frames_) : 0.0, 1e3 * setup_seconds_);
   return buf;
 }
 
