@@ -318,6 +318,7 @@ LabelEvidence Tracker::evidence(Track& t, const Detection& det, bool own_edge) c
   ever_free_evidence(det, &e);
   e.plausible_size = plausible_size(t.size);
   e.near_depth = det.near_depth;
+  e.side_cut = side_cut(det.image_box);
   e.slow = t.kf.velocity().norm() < config_.continuity.min_speed;
   // Continuity filter over the measured history (oldest first), then the vote.
   std::array<Eigen::Vector2f, kMaxTrackHistory> ordered;

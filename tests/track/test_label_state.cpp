@@ -173,18 +173,36 @@ TEST_F(LabelStateTest, EarlyRunMayFollowStaticVotesWhileTheWindowIsYoung) {
   EXPECT_EQ(s.mode(), LabelMode::kStatic);
 }
 
-TEST_F(LabelStateTest, EarlyRunAfterStaticVotesNeedsATrackStartedAfterTheMapHadHistory) {
-  // A track from the run's first second: the cleaner cannot yet tell structure beside it from
-  // its trail, so only a run with every vote dynamic labels it early.
+TEST_F(LabelStateTest, EarlyRunAfterStaticVotesInTheRunsFirstSecondNeedsAFullView) {
+  // A track from the run's first second: the map holds no static evidence yet, and a static
+  // thing cut by the image border can vote dynamic after static votes, so only a run whose
+  // detections were all clear of the left and right border labels it after static votes.
   lc.early_votes = 4;
   LabelEvidence first = no_vote(false);
   first.run_frame = lc.young_run_from_frame - 1;
+  LabelEvidence cut = vote(true);
+  cut.side_cut = true;
   s.start(first, lc);
   measure(vote(false), 3);
-  measure(vote(true), 6);
+  measure(vote(true), 2);
+  measure(cut);  // one side-cut frame spoils the whole run
+  measure(vote(true), 5);
   EXPECT_EQ(s.mode(), LabelMode::kStatic);
   s.start(first, lc);
-  measure(vote(true), 4);  // every vote dynamic: the early label as before
+  measure(vote(false), 3);
+  measure(cut, 2);
+  measure(vote(false));  // a new run in full view counts
+  measure(vote(true), 3);
+  EXPECT_EQ(s.mode(), LabelMode::kStatic);
+  measure(vote(true));
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  s.start(first, lc);
+  measure(cut, 4);  // every vote dynamic: the early label as before, cut or not
+  EXPECT_EQ(s.mode(), LabelMode::kDynamic);
+  first.run_frame = lc.young_run_from_frame;  // a second in: a side-cut run counts
+  s.start(first, lc);
+  measure(vote(false), 3);
+  measure(cut, 4);
   EXPECT_EQ(s.mode(), LabelMode::kDynamic);
 }
 

@@ -44,10 +44,12 @@ struct LabelConfig {
   /// not there yet) and otherwise waited for T_c of c votes. Tracks that flicker in and out
   /// (wall pieces, fragments) still need every vote dynamic.
   bool early_while_young = true;
-  /// `early_while_young` applies only to a track that started at least this many frames into the
-  /// run. The cleaner keeps voxels occupied since long before a track started
-  /// (cleaner.static_margin_frames); beside a track from the run's first second nothing is old
-  /// enough to keep, so such a track needs every vote dynamic.
+  /// On a track that started fewer than this many frames into the run, `early_while_young`
+  /// counts only a run whose detections were all clear of the left and right image border. In
+  /// the run's first second the map holds no static evidence yet, and a static thing cut by the
+  /// border (its visible part changing with the view and the sensor's dropouts) can cast four
+  /// dynamic votes after static ones; a walker in full view votes the same way while its
+  /// velocity converges.
   std::size_t young_run_from_frame = 30;
   /// The early run labels only a detection whose nearest surface is at most this far (m, camera
   /// depth; 0: no limit). Four votes are enough because a wall piece sliding in the view lies on
@@ -102,6 +104,8 @@ struct LabelEvidence {
   /// its box moves with the view and the occluders. No vote, and the runs and the label stay as
   /// they were (neither extended nor ended).
   bool view_bounded = false;
+  /// The detection touches the left or right image border (within the tracker's image_margin).
+  bool side_cut = false;
   /// Read at start(): the detection lies where a track labelled dynamic was lost a moment ago
   /// (TrackerConfig::inherit_time). The new track starts labelled dynamic within
   /// early_max_depth, and keeps the label while every vote is dynamic and no frame is missed.
@@ -149,6 +153,7 @@ class LabelState {
   bool every_vote_dynamic_ = true;    ///< no static vote and no missed frame since the first vote
   bool missed_after_vote_ = false;    ///< a missed frame since the first vote
   bool young_run_allowed_ = false;    ///< started late enough for LabelConfig::early_while_young
+  bool side_cut_in_streak_ = false;   ///< a detection of the dynamic streak was side-cut
   bool early_run_beyond_range_ = false;  ///< an early run beyond early_max_depth (not labelled)
   /// Started from a lost dynamic track's label; ends with a static vote or a missed frame.
   bool inherited_ = false;
