@@ -152,7 +152,7 @@ class LabelState {
   std::size_t held_frames_ = 0;       ///< measured frames of the current hold (0: none)
   bool every_vote_dynamic_ = true;    ///< no static vote and no missed frame since the first vote
   bool missed_after_vote_ = false;    ///< a missed frame since the first vote
-  bool young_run_allowed_ = false;    ///< started late enough for LabelConfig::early_while_young
+  bool young_run_allowed_ = false;    ///< started late enough for a side-cut young run
   bool side_cut_in_streak_ = false;   ///< a detection of the dynamic streak was side-cut
   bool early_run_beyond_range_ = false;  ///< an early run beyond early_max_depth (not labelled)
   /// Started from a lost dynamic track's label; ends with a static vote or a missed frame.
