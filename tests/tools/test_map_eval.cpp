@@ -186,12 +186,19 @@ TEST(MapScore, HandMadeWorldGivesHandComputedSaDaAa) {
   EXPECT_TRUE(std::isnan(empty.aa));
 }
 
+// map_frames.csv's header as files of each age had it: the first four counts, then the bare
+// pair, then the whole pair.
+constexpr const char* kFramesHeader =
+    "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
+    "erased_obstacle_voxels_all,free_through_obstacle_voxels_all";
+constexpr const char* kBareColumns = ",erased_obstacle_voxels_bare,erased_obstacle_voxels_bare_all";
+constexpr const char* kWholeColumns =
+    ",free_through_obstacle_voxels_whole,free_through_obstacle_voxels_whole_all";
+
 TEST(MapScore, MapFramesCsvMaximaAndBadRows) {
   TempDir dir;
   write_file(dir / "map_frames.csv",
-             "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
-             "erased_obstacle_voxels_all,free_through_obstacle_voxels_all\n"
-             "1.0,0,2,1,5\n2.0,3,0,4,6\n3.0,1,1,2,7\n");
+             std::string(kFramesHeader) + "\n1.0,0,2,1,5\n2.0,3,0,4,6\n3.0,1,1,2,7\n");
   eval::MapAccuracy r;
   eval::read_map_frames(dir / "map_frames.csv", r);
   EXPECT_TRUE(r.frames_available);
@@ -204,31 +211,22 @@ TEST(MapScore, MapFramesCsvMaximaAndBadRows) {
   EXPECT_EQ(r.free_through_final_all, 7u);
   EXPECT_FALSE(r.bare_available);  // a file from before the bare columns still scores
   write_file(dir / "bare.csv",
-             "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
-             "erased_obstacle_voxels_all,free_through_obstacle_voxels_all,"
-             "erased_obstacle_voxels_bare,erased_obstacle_voxels_bare_all\n"
-             "1.0,3,0,4,6,2,3\n2.0,1,1,2,7,0,1\n");
+             std::string(kFramesHeader) + kBareColumns + "\n1.0,3,0,4,6,2,3\n2.0,1,1,2,7,0,1\n");
   eval::MapAccuracy with_bare;
   eval::read_map_frames(dir / "bare.csv", with_bare);
   EXPECT_TRUE(with_bare.bare_available);
   EXPECT_EQ(with_bare.erased_bare_max, 2u);
   EXPECT_EQ(with_bare.erased_bare_all_max, 3u);
   EXPECT_FALSE(with_bare.whole_available);
-  write_file(dir / "whole.csv",
-             "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
-             "erased_obstacle_voxels_all,free_through_obstacle_voxels_all,"
-             "erased_obstacle_voxels_bare,erased_obstacle_voxels_bare_all,"
-             "free_through_obstacle_voxels_whole,free_through_obstacle_voxels_whole_all\n"
-             "1.0,3,4,4,6,2,3,1,2\n2.0,1,5,2,7,0,1,0,5\n");
+  write_file(dir / "whole.csv", std::string(kFramesHeader) + kBareColumns + kWholeColumns +
+                                    "\n1.0,3,4,4,6,2,3,1,2\n2.0,1,5,2,7,0,1,0,5\n");
   eval::MapAccuracy with_whole;
   eval::read_map_frames(dir / "whole.csv", with_whole);
   EXPECT_TRUE(with_whole.whole_available);
   EXPECT_EQ(with_whole.free_through_whole_max, 1u);
   EXPECT_EQ(with_whole.free_through_whole_all_max, 5u);
   EXPECT_EQ(with_whole.free_through_max, 5u);
-  write_file(dir / "bad.csv",
-             "stamp,erased_obstacle_voxels,free_through_obstacle_voxels,"
-             "erased_obstacle_voxels_all,free_through_obstacle_voxels_all\n1.0,0,x,1,5\n");
+  write_file(dir / "bad.csv", std::string(kFramesHeader) + "\n1.0,0,x,1,5\n");
   eval::MapAccuracy b;
   EXPECT_NE(error_of([&] { eval::read_map_frames(dir / "bad.csv", b); }).find("bad.csv:2:"),
             std::string::npos);
