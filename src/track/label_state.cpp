@@ -10,7 +10,6 @@ Status LabelConfig::validate() const noexcept {
 
 void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexcept {
   *this = LabelState{};
-  young_run_allowed_ = e.run_frame >= config.young_run_from_frame;
   ever_free_streak_ = e.in_ever_free && !e.ever_free_overruled ? 1 : 0;
   const bool in_range = config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth;
   inherited_ = e.follows_lost_dynamic && e.plausible_size && in_range;
@@ -44,11 +43,10 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
     }
     // The early run counts for a track whose votes were all dynamic, one dynamic before (or with
     // an early run beyond the range), one that stood still, or a young one (window not full, no
-    // gap) that started after the run's first second or whose run was in full view. It labels
-    // only within early_max_depth.
+    // gap) whose run was in full view. It labels only within early_max_depth.
     const bool stood_still =
         config.restart_slow_frames > 0 && slow_frames_ >= config.restart_slow_frames;
-    const bool young_run = config.early_while_young && (young_run_allowed_ || !side_cut_in_streak_);
+    const bool young_run = config.early_while_young && !side_cut_in_streak_;
     const bool early_run =
         config.early_votes > 0 && dynamic_streak_ >= config.early_votes &&
         (every_vote_dynamic_ || dynamic_frames_ > 0 || early_run_beyond_range_ || stood_still ||

@@ -104,7 +104,6 @@ void Tracker::clear() noexcept {
   output_count_ = 0;
   has_stamp_ = false;
   last_stamp_ = 0;
-  frames_processed_ = 0;
   lost_count_ = 0;
   lost_next_ = 0;
 }
@@ -418,7 +417,6 @@ Status Tracker::update(const Detection* dets, std::size_t count, const Pose& T_m
   start_tracks(dets, count, T_map_camera, stamp);
   last_stamp_ = stamp;
   has_stamp_ = true;
-  if (frames_processed_ < std::numeric_limits<std::size_t>::max()) ++frames_processed_;
   publish();
   return Status::kOk;
 }
@@ -540,7 +538,6 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, const Pose&
     LabelEvidence e;
     ever_free_evidence(dets[i], &e);
     e.plausible_size = plausible_size(t.size);
-    e.run_frame = frames_processed_;
     e.near_depth = dets[i].near_depth;
     Eigen::Vector2f velocity = Eigen::Vector2f::Zero();
     e.follows_lost_dynamic =

@@ -39,18 +39,15 @@ struct LabelConfig {
   /// votes.
   std::size_t early_votes = 4;
   /// The early run may follow static votes while the vote window is not full yet (fewer than c
-  /// votes cast) and the track was detected on every frame since its first vote: a walker
-  /// entering the view at the border or speeding up votes static first (continuity or speed
-  /// not there yet) and otherwise waited for T_c of c votes. Tracks that flicker in and out
-  /// (wall pieces, fragments) still need every vote dynamic.
+  /// votes cast), the track was detected on every frame since its first vote and the run's
+  /// detections were all clear of the left and right image border: a walker speeding up or
+  /// stepping out from behind someone votes static first (continuity or speed not there yet)
+  /// and otherwise waited for T_c of c votes. Tracks that flicker in and out (wall pieces,
+  /// fragments) still need every vote dynamic, and so does a thing cut by the border, whose
+  /// visible part changes with the view and the sensor's dropouts: a box corner or sliver the
+  /// view has just reached, with no static evidence in the map yet, can cast four dynamic
+  /// votes after static ones.
   bool early_while_young = true;
-  /// On a track that started fewer than this many frames into the run, `early_while_young`
-  /// counts only a run whose detections were all clear of the left and right image border. In
-  /// the run's first second the map holds no static evidence yet, and a static thing cut by the
-  /// border (its visible part changing with the view and the sensor's dropouts) can cast four
-  /// dynamic votes after static ones; a walker in full view votes the same way while its
-  /// velocity converges.
-  std::size_t young_run_from_frame = 30;
   /// The early run labels only a detection whose nearest surface is at most this far (m, camera
   /// depth; 0: no limit). Four votes are enough because a wall piece sliding in the view lies on
   /// voxels the map has held for long and votes static; beyond the map's range
@@ -98,7 +95,6 @@ struct LabelEvidence {
   bool ever_free_overruled = false;
   bool plausible_size = true;  ///< the track's size passes the size check (or the check is off)
   bool slow = false;           ///< the filtered speed is below continuity.min_speed
-  std::size_t run_frame = 0;   ///< frames the tracker processed before this (read at start())
   float near_depth = 0.f;      ///< camera depth of the detection's nearest surface (m)
   /// The detection's sides are the image border and nearer detections, not the object's own:
   /// its box moves with the view and the occluders. No vote, and the runs and the label stay as
@@ -152,7 +148,6 @@ class LabelState {
   std::size_t held_frames_ = 0;       ///< measured frames of the current hold (0: none)
   bool every_vote_dynamic_ = true;    ///< no static vote and no missed frame since the first vote
   bool missed_after_vote_ = false;    ///< a missed frame since the first vote
-  bool young_run_allowed_ = false;    ///< started late enough for a side-cut young run
   bool side_cut_in_streak_ = false;   ///< a detection of the dynamic streak was side-cut
   bool early_run_beyond_range_ = false;  ///< an early run beyond early_max_depth (not labelled)
   /// Started from a lost dynamic track's label; ends with a static vote or a missed frame.

@@ -80,8 +80,7 @@ inline constexpr Relation<ContinuityConfig> kContinuityRelations[] = {
 inline constexpr Param<LabelConfig> kLabel[] = {
     // clang-format off
     {DYNAMAP_PARAM(LabelConfig, early_votes), X, "", 0, kMaxVoteWindow, kClosed, kClosed, "this many consecutive dynamic votes label dynamic early (0: off)"},
-    {DYNAMAP_PARAM(LabelConfig, early_while_young), X, "", 0, 1, kClosed, kClosed, "the early run may follow static votes until c votes are cast"},
-    {DYNAMAP_PARAM(LabelConfig, young_run_from_frame), X, "frames", 0, 100000, kClosed, kClosed, "on tracks that start earlier, only a run whose detections were clear of the left and right image border"},
+    {DYNAMAP_PARAM(LabelConfig, early_while_young), X, "", 0, 1, kClosed, kClosed, "the early run may follow static votes until c votes are cast, if its detections were clear of the left and right image border"},
     {DYNAMAP_PARAM(LabelConfig, early_max_depth), X, "m", 0, kInf, kClosed, kOpen, "the early run labels only detections this near (the map's range: beyond it no static evidence; 0: no limit)"},
     {DYNAMAP_PARAM(LabelConfig, restart_slow_frames), X, "frames", 0, 100000, kClosed, kClosed, "a track slower than v_min on this many frames (it stood still) may be labelled by the early run after static votes (0: off)"},
     {DYNAMAP_PARAM(LabelConfig, dynamic_hold_frames), X, "frames", 0, 100000, kClosed, kClosed, "a confirmed dynamic track keeps its label this long after its votes turn static (0: off)"},

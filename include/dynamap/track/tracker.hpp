@@ -330,7 +330,6 @@ class Tracker {
   std::uint32_t next_id_ = 1;
   Stamp last_stamp_ = 0;
   bool has_stamp_ = false;
-  std::size_t frames_processed_ = 0;  ///< updates since clear(), for LabelEvidence::run_frame
   std::array<LostTrack, kMaxTracks> lost_{};  ///< ring of the latest losses (inherit_time)
   std::size_t lost_count_ = 0;
   std::size_t lost_next_ = 0;
