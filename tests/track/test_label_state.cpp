@@ -155,8 +155,8 @@ TEST_F(LabelStateTest, EarlyRunNeedsEveryVoteDynamicOnceTheWindowIsFull) {
 }
 
 TEST_F(LabelStateTest, EarlyRunMayFollowStaticVotesWhileTheWindowIsYoung) {
-  // A walker entering at the image border: its first votes are static (continuity not there
-  // yet), then it votes dynamic on every frame.
+  // A walker stepping out from behind a nearer person, clear of the image border: its
+  // first votes are static (continuity not there yet), then it votes dynamic on every frame.
   lc.early_votes = 4;
   s.start(no_vote(false), lc);
   measure(vote(false), 3);
