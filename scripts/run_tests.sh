@@ -6,8 +6,16 @@
 # functions of at most 80 lines, bug-prone checks, warnings as errors; on the dev build's compile
 # commands). The dev preset compiles the benchmarks so they cannot rot unseen; none is a test.
 # Prints ctest's summary for each and exits non-zero if any step failed.
+# A preset's build tree is removed once its tests pass (the dev preset's is kept for clang-tidy;
+# DYNAMAP_KEEP_BUILDS=1 keeps all): all six trees together take about 5 GB.
 set -uo pipefail
 cd "$(dirname "$0")/.."
+
+# A full disk fails the build with "No space left on device" deep in a log; say it up front.
+free_kb=$(df -Pk . | awk 'NR == 2 {print $4}')
+if [ "${free_kb:-0}" -lt 4000000 ]; then
+  echo "warning: only $((free_kb / 1024)) MB free here; the test builds need about 2 GB at a time"
+fi
 
 PRESETS=(${DYNAMAP_TEST_PRESETS:-dev asan tsan noexcept aarch64 fuzz})
 declare -A result
@@ -37,6 +45,9 @@ for p in "${PRESETS[@]}"; do
   fi
   # ctest's own summary lines.
   grep -E "tests passed|tests failed|Total Test time|\*\*\*Failed|\(Failed\)|Timeout" "${log}" || true
+  if [ "${result[$p]}" = "passed" ] && [ "${p}" != "dev" ] && [ "${DYNAMAP_KEEP_BUILDS:-0}" != "1" ]; then
+    rm -rf "build/${p}"
+  fi
   echo "=== preset ${p}: ${result[$p]} in $(( $(date +%s) - start )) s ==="
 done
 
