@@ -574,7 +574,14 @@ bool Tracker::follows_lost_dynamic(const Measurement& m, Stamp stamp,
     if (since > config_.inherit_time) return;
     if (std::abs(m.size.z() - height) > config_.inherit_height_tolerance) return;
     const float radius = config_.inherit_radius + config_.inherit_radius_growth * since;
-    const float distance = (m.center.head<2>() - (position + v * since)).norm();
+    // Anywhere along the way its last velocity would have carried it: the velocity at a loss is
+    // often stale (a walker slowing to turn, a box shrinking behind an occluder), and a walker
+    // who stopped or turned while hidden comes back short of the extrapolated point.
+    const Eigen::Vector2f path = v * since;
+    const Eigen::Vector2f offset = m.center.head<2>() - position;
+    const float squared = path.squaredNorm();
+    const float along = squared > 0.f ? std::clamp(offset.dot(path) / squared, 0.f, 1.f) : 0.f;
+    const float distance = (offset - path * along).norm();
     if (distance <= radius && distance < best) {
       best = distance;
       *velocity = v;

@@ -241,6 +241,30 @@ TEST(TrackerLabels, AWalkerBackBesideItsLostTrackStartsDynamic) {
   }
 }
 
+// A walker who stopped while hidden and steps out sideways comes back short of where its lost
+// track's velocity would have carried it: within the radius of the way it would have gone, the
+// new track still takes the label; further aside it earns its own.
+TEST(TrackerLabels, AWalkerWhoStoppedWhileHiddenStillTakesTheLostLabel) {
+  for (const auto& [aside, dynamic] : {std::pair{0.65f, true}, std::pair{0.85f, false}}) {
+    auto tracker = make_tracker();
+    CrossingWalker walker{*tracker};
+    while (walker.frame < 40) ASSERT_EQ(walker.seen(), Status::kOk);
+    ASSERT_TRUE(tracker->obstacle(0).dynamic);
+    const std::uint32_t id = tracker->obstacle(0).id;
+    // Hidden for 13 frames (0.47 s: the radius is 0.5 + 0.5 x 0.47 = 0.73 m), standing where it
+    // vanished; the lost track's velocity would put it 0.47 m further on.
+    for (int gap = 0; gap < 13; ++gap) ASSERT_EQ(walker.hidden(), Status::kOk);
+    for (int f = 0; f < 5; ++f) {
+      const Eigen::Vector3f at = CrossingWalker::at(40 + f) + Eigen::Vector3f(aside, 0, 0);
+      const Detection d = detection(at);
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), walker.stamp += kFrame), Status::kOk);
+      ASSERT_EQ(tracker->size(), 1u);
+      ASSERT_GT(tracker->obstacle(0).id, id);
+      EXPECT_EQ(tracker->obstacle(0).dynamic, dynamic) << "aside " << aside << " frame " << f;
+    }
+  }
+}
+
 // A walker tracked at 30 Hz, then the next frame comes an hour later without it: its track is
 // not extrapolated across the gap (it would be ~3.6 km further on) and kept, it ends.
 TEST(TrackerAssociation, ATimeGapLongerThanMaxCoastTimeEndsTheTrack) {

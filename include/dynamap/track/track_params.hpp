@@ -98,7 +98,7 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, max_missed_frames), X, "frames", 0, kInf, kClosed, kOpen, "frames a track coasts unmeasured before it is dropped"},
     {DYNAMAP_PARAM(TrackerConfig, reacquire_frames), X, "frames", 0, 1000, kClosed, kClosed, "a track whose votes say dynamic is kept this much longer, unpublished, for a detection to take it up again (0: off)"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_time), X, "s", 0, 10, kClosed, kClosed, "a new track where a track labelled dynamic was lost this recently starts dynamic, until a static vote or a missed frame (0: off)"},
-    {DYNAMAP_PARAM(TrackerConfig, inherit_radius), X, "m", 0, 10, kClosed, kClosed, "... within this distance of the lost track's last centre moved on at its velocity"},
+    {DYNAMAP_PARAM(TrackerConfig, inherit_radius), X, "m", 0, 10, kClosed, kClosed, "... within this distance of the way from the lost track's last centre to where its velocity would carry it"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_radius_growth), X, "m/s", 0, 10, kClosed, kClosed, "... plus this much per second since the lost track's last measurement"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_height_tolerance), X, "m", 0, 10, kClosed, kClosed, "... and whose height differs from the lost track's by at most this"},
     {DYNAMAP_PARAM(TrackerConfig, max_coast_time), X, "s", 0, kInf, kOpen, kOpen, "a track unmeasured this long is dropped whatever the frame count"},

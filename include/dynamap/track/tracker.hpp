@@ -50,8 +50,9 @@ struct TrackerConfig {
   /// association gate, and as a new track it had to earn its label again: seven frames before
   /// its first vote, with a velocity starting from zero.
   float inherit_time = 0.5f;
-  /// ... "where": within this distance (m) of the lost track's last measured centre moved on at
-  /// its velocity, plus inherit_radius_growth for every second since that measurement.
+  /// ... "where": within this distance (m) of the way from the lost track's last measured centre
+  /// to where its last velocity would carry it by now (a walker may have stopped or turned while
+  /// hidden), plus inherit_radius_growth for every second since that measurement.
   float inherit_radius = 0.5f;
   float inherit_radius_growth = 0.5f;  ///< m/s: the lost track's velocity is a guess that ages
   /// ... and the detection's height differs from the lost track's by at most this (m): a
