@@ -76,7 +76,7 @@ struct LabelConfig {
   /// the planner sees a static obstacle and the map takes the person in as static. A track
   /// whose votes turn static while it still moves fast (a sliding wall piece) gets no hold.
   std::size_t dynamic_hold_frames = 90;
-  std::size_t hold_min_dynamic_frames = 30;  ///< frames labelled dynamic before a hold applies
+  std::size_t hold_min_dynamic_frames = 8;  ///< frames labelled dynamic before a hold applies
 
   /// kInvalidArgument when a field is outside its range (params::kLabel, track_params.hpp).
   /// early_votes against continuity.vote_window is TrackerConfig's rule (kTrackerRelations).
