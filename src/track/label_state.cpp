@@ -13,6 +13,7 @@ void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexce
   ever_free_streak_ = e.in_ever_free && !e.ever_free_overruled ? 1 : 0;
   const bool in_range = config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth;
   inherited_ = e.follows_lost_dynamic && e.plausible_size && in_range;
+  trusted_ = ever_free_run(e, config) || (inherited_ && e.lost_recently);
   mode_ = ever_free_run(e, config) || inherited_ ? LabelMode::kDynamic : LabelMode::kStatic;
 }
 
@@ -25,6 +26,7 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
   }
   if (e.view_bounded) {
     if (ever_free_run(e, config)) {
+      trusted_ = true;
       mode_ = LabelMode::kDynamic;
     } else if (mode_ == LabelMode::kCoasting) {
       mode_ = voter_.dynamic() ? LabelMode::kDynamic : LabelMode::kStatic;
@@ -59,7 +61,9 @@ void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& contin
   }
   const bool inherited =
       inherited_ && (config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth);
-  if (votes_say || inherited || ever_free_run(e, config)) {
+  const bool own = votes_say || ever_free_run(e, config);
+  if (own || inherited) {
+    trusted_ = trusted_ || own;
     mode_ = LabelMode::kDynamic;
     held_frames_ = 0;
     if (dynamic_frames_ < kMaxLabelCount) ++dynamic_frames_;

@@ -540,8 +540,10 @@ void Tracker::start_tracks(const Detection* dets, std::size_t count, const Pose&
     e.plausible_size = plausible_size(t.size);
     e.near_depth = dets[i].near_depth;
     Eigen::Vector2f velocity = Eigen::Vector2f::Zero();
+    float since = 0.f;
     e.follows_lost_dynamic =
-        !frame_.meas[i].on_static && follows_lost_dynamic(frame_.meas[i], stamp, &velocity);
+        !frame_.meas[i].on_static && follows_lost_dynamic(frame_.meas[i], stamp, &velocity, &since);
+    e.lost_recently = e.follows_lost_dynamic && since <= config_.inherit_trusted_time;
     t.label.start(e, config_.label);
     if (t.label.dynamic() && e.follows_lost_dynamic) {
       const Eigen::Vector3f& c = frame_.meas[i].center;
@@ -564,8 +566,8 @@ void Tracker::drop_track(Track& t) noexcept {
   ++dropped_tracks_;
 }
 
-bool Tracker::follows_lost_dynamic(const Measurement& m, Stamp stamp,
-                                   Eigen::Vector2f* velocity) const noexcept {
+bool Tracker::follows_lost_dynamic(const Measurement& m, Stamp stamp, Eigen::Vector2f* velocity,
+                                   float* since_loss) const noexcept {
   if (config_.inherit_time <= 0.f) return false;
   float best = std::numeric_limits<float>::infinity();
   const auto consider = [&](const Eigen::Vector2f& position, const Eigen::Vector2f& v, float height,
@@ -585,6 +587,7 @@ bool Tracker::follows_lost_dynamic(const Measurement& m, Stamp stamp,
     if (distance <= radius && distance < best) {
       best = distance;
       *velocity = v;
+      *since_loss = since;
     }
   };
   for (std::size_t k = 0; k < lost_count_; ++k) {
@@ -615,7 +618,7 @@ void Tracker::publish() noexcept {
     t.out.dynamic = t.label.dynamic();
     if (!t.out.dynamic) {
       t.out.dynamic_frames = 0;
-    } else if (t.out.dynamic_frames < kMaxLabelCount) {
+    } else if (t.label.trusted() && t.out.dynamic_frames < kMaxLabelCount) {
       ++t.out.dynamic_frames;
     }
     t.out.dynamic_votes = static_cast<std::uint32_t>(t.label.voter().dynamic_votes());

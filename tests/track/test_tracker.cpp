@@ -140,8 +140,9 @@ TEST(TrackerAssociation, TwoMissedFramesKeepTheIdLongerGapsDropIt) {
 
 // A walker labelled dynamic, hidden for 10 frames (behind a pillar): unpublished once it has
 // missed more than 3 frames, then taken up again by its detection with its id and label.
-// Hidden for longer than max_missed_frames + reacquire_frames it ends; a static track ends
-// after max_missed_frames as before.
+// Hidden for longer than max_missed_frames + reacquire_frames it ends (its walker starts a new
+// track, labelled from the loss 0.6 s ago, which the cleaner does not count yet: inherit_time,
+// inherit_trusted_time); a static track ends after max_missed_frames as before.
 TEST(TrackerAssociation, DynamicTrackHiddenForAMomentIsTakenUpAgainWithItsLabel) {
   for (const int hidden : {10, 19}) {
     auto tracker = make_tracker();  // coasts 3 frames, kept unpublished 15 more
@@ -162,7 +163,8 @@ TEST(TrackerAssociation, DynamicTrackHiddenForAMomentIsTakenUpAgainWithItsLabel)
       EXPECT_EQ(tracker->dropped_tracks(), 0u);
     } else {
       EXPECT_GT(tracker->obstacle(0).id, id);
-      EXPECT_FALSE(tracker->obstacle(0).dynamic);
+      EXPECT_TRUE(tracker->obstacle(0).dynamic);
+      EXPECT_EQ(tracker->obstacle(0).dynamic_frames, 0u);
       EXPECT_EQ(tracker->dropped_tracks(), 1u);
     }
   }
@@ -236,6 +238,52 @@ TEST(TrackerLabels, AWalkerBackBesideItsLostTrackStartsDynamic) {
         EXPECT_EQ(tracker->obstacle(0).dynamic, c.dynamic)
             << "time " << c.inherit_time << " offset " << c.offset << " height " << c.height
             << " reacquire " << c.reacquire_frames << " frame " << f;
+      }
+    }
+  }
+}
+
+// A lost walker's label taken up by a new track counts for the cleaner (dynamic_frames) at once
+// when the loss was recent (hidden 8 frames, 0.27 s); from an older loss (20 frames, 0.67 s)
+// only once the new track's own votes agree: a walker back beside its lost track counts from
+// its early run on, a person standing there (uncovered as the walker went) is published dynamic
+// until its first static vote but never counts, so the map keeps it.
+TEST(TrackerLabels, AnOldLossesLabelCountsForTheCleanerOnlyWithTheTracksOwnVotes) {
+  for (const int gap : {8, 20}) {
+    for (const bool walks : {true, false}) {
+      auto tracker = make_tracker();
+      CrossingWalker walker{*tracker};
+      while (walker.frame < 40) ASSERT_EQ(walker.seen(), Status::kOk);
+      ASSERT_TRUE(tracker->obstacle(0).dynamic);
+      const std::uint32_t id = tracker->obstacle(0).id;
+      for (int f = 0; f < gap; ++f) ASSERT_EQ(walker.hidden(), Status::kOk);
+      const Eigen::Vector3f start = CrossingWalker::at(walker.frame) + Eigen::Vector3f(0.4f, 0, 0);
+      int inherited_frames = 0, counted = 0;
+      for (int f = 0; f < 20; ++f) {
+        const Eigen::Vector3f at =
+            walks ? CrossingWalker::at(walker.frame++) + Eigen::Vector3f(0.4f, 0, 0) : start;
+        const Detection d = detection(at);
+        ASSERT_EQ(tracker->update(&d, 1, camera_at(), walker.stamp += kFrame), Status::kOk);
+        ASSERT_EQ(tracker->size(), 1u);
+        const TrackedObstacle& o = tracker->obstacle(0);
+        ASSERT_GT(o.id, id);
+        if (f == 0) {
+          EXPECT_TRUE(o.dynamic) << "gap " << gap << " walks " << walks;  // the lost label
+        }
+        inherited_frames += o.dynamic && o.votes == 0;
+        if (o.dynamic && o.votes == 0) {  // the inherited label alone
+          EXPECT_EQ(o.dynamic_frames, gap == 8 ? static_cast<std::uint32_t>(f + 1) : 0u)
+              << "gap " << gap << " walks " << walks << " frame " << f;
+        }
+        counted += o.dynamic_frames > 0;
+      }
+      EXPECT_GE(inherited_frames, 3) << "gap " << gap << " walks " << walks;
+      if (walks) {
+        EXPECT_GE(counted, 8) << "gap " << gap;  // from the early run (four dynamic votes) on
+        EXPECT_TRUE(tracker->obstacle(0).dynamic);
+      } else {
+        EXPECT_EQ(counted > 0, gap == 8);
+        EXPECT_FALSE(tracker->obstacle(0).dynamic);
       }
     }
   }

@@ -106,6 +106,8 @@ struct LabelEvidence {
   /// (TrackerConfig::inherit_time). The new track starts labelled dynamic within
   /// early_max_depth, and keeps the label while every vote is dynamic and no frame is missed.
   bool follows_lost_dynamic = false;
+  /// ... and that track was measured at most TrackerConfig::inherit_trusted_time ago.
+  bool lost_recently = false;
 };
 
 /// The states of LabelState: why a track carries its label.
@@ -134,6 +136,10 @@ class LabelState {
   const DynamicVoter& voter() const noexcept { return voter_; }
   std::size_t dynamic_streak() const noexcept { return dynamic_streak_; }
   std::size_t held_frames() const noexcept { return held_frames_; }
+  /// Labelled dynamic at some frame by its own votes or ever-free run, or from a recent loss
+  /// (LabelEvidence::lost_recently). The cleaner counts only such labels: a standing person
+  /// uncovered by a walker passing in front takes the walker's label until its votes speak.
+  bool trusted() const noexcept { return trusted_; }
 
  private:
   bool ever_free_run(const LabelEvidence& e, const LabelConfig& config) const noexcept;
@@ -152,6 +158,7 @@ class LabelState {
   bool early_run_beyond_range_ = false;  ///< an early run beyond early_max_depth (not labelled)
   /// Started from a lost dynamic track's label; ends with a static vote or a missed frame.
   bool inherited_ = false;
+  bool trusted_ = false;  ///< votes, an ever-free run or a recent loss have labelled it dynamic
 };
 
 }  // namespace dynamap

@@ -101,6 +101,7 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, inherit_radius), X, "m", 0, 10, kClosed, kClosed, "... within this distance of the way from the lost track's last centre to where its velocity would carry it"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_radius_growth), X, "m/s", 0, 10, kClosed, kClosed, "... plus this much per second since the lost track's last measurement"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_height_tolerance), X, "m", 0, 10, kClosed, kClosed, "... and whose height differs from the lost track's by at most this"},
+    {DYNAMAP_PARAM(TrackerConfig, inherit_trusted_time), X, "s", 0, 10, kClosed, kClosed, "an inherited label counts for the cleaner at once only from a loss this recent; from an older one once the track's own votes label it"},
     {DYNAMAP_PARAM(TrackerConfig, max_coast_time), X, "s", 0, kInf, kOpen, kOpen, "a track unmeasured this long is dropped whatever the frame count"},
     {DYNAMAP_PARAM(TrackerConfig, history_length), X, "frames", 2, kMaxTrackHistory - 1, kClosed, kClosed, "k: positions kept for the continuity filter"},
     {DYNAMAP_PARAM(TrackerConfig, box_history_length), X, "frames", 1, kMaxBoxHistory, kClosed, kClosed, "f: past boxes kept for the cleaner"},

@@ -49,7 +49,12 @@ struct TrackerConfig {
   /// prediction (a sliver stepping out from behind someone, a turn while hidden), beyond the
   /// association gate, and as a new track it had to earn its label again: seven frames before
   /// its first vote, with a velocity starting from zero.
-  float inherit_time = 0.5f;
+  float inherit_time = 1.0f;
+  /// An inherited label counts for the dynamic-region cleaner (TrackedObstacle::dynamic_frames)
+  /// at once only when the loss was at most this long ago (s); from an older loss, only once the
+  /// new track's own votes or ever-free run label it. A standing person uncovered by a walker
+  /// passing in front takes the label of that walker's loss, and the cleaner must not clear it.
+  float inherit_trusted_time = 0.5f;
   /// ... "where": within this distance (m) of the way from the lost track's last measured centre
   /// to where its last velocity would carry it by now (a walker may have stopped or turned while
   /// hidden), plus inherit_radius_growth for every second since that measurement.
@@ -202,8 +207,10 @@ struct TrackedObstacle {
   std::uint32_t dynamic_votes = 0;   ///< dynamic votes in the current window
   std::uint32_t votes = 0;           ///< votes in the window (<= c)
   std::uint32_t dynamic_streak = 0;  ///< dynamic votes in a row (early label)
-  /// Frames in a row this track has been published dynamic (0 while it is not): how long the
-  /// label has held, e.g. for the cleaner, which trusts no label younger than a few frames.
+  /// Frames in a row this track has been published dynamic (0 while it is not), counted from
+  /// its first label the cleaner may trust (not a label inherited from a loss older than
+  /// TrackerConfig::inherit_trusted_time alone): how long the label has held, e.g. for the
+  /// cleaner, which trusts no label younger than a few frames.
   std::uint32_t dynamic_frames = 0;
   std::uint32_t age = 0;            ///< frames since the track started
   std::uint32_t hits = 0;           ///< frames with a matched detection
@@ -316,9 +323,10 @@ class Tracker {
   /// Deactivates a track and counts it; one labelled dynamic when last measured is remembered.
   void drop_track(Track& t) noexcept;
   /// The detection (measured as m) lies where a track labelled dynamic was lost a moment ago;
-  /// *velocity is then the nearest such track's last measured velocity.
-  bool follows_lost_dynamic(const Measurement& m, Stamp stamp,
-                            Eigen::Vector2f* velocity) const noexcept;
+  /// *velocity is then the nearest such track's last measured velocity and *since the seconds
+  /// since its last measurement.
+  bool follows_lost_dynamic(const Measurement& m, Stamp stamp, Eigen::Vector2f* velocity,
+                            float* since) const noexcept;
 
   TrackerConfig config_{};
   int image_width_ = 0;  ///< of the depth images, from init
