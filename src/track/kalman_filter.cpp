@@ -236,6 +236,22 @@ void TurnImmKalman::shift_position(const Eigen::Vector2f& d) noexcept {
   x_.head<2>() += d;
 }
 
+void TurnImmKalman::set_velocity(const Eigen::Vector2f& v) noexcept {
+  for (int m = 0; m < kModes; ++m) {
+    xm_[m].segment<2>(2) = v;
+    xm_[m](4) = 0.f;
+  }
+  combine();
+}
+
+void TrackFilter::set_velocity(const Eigen::Vector2f& v) noexcept {
+  if (model_ == MotionModel::kTurnImm) {
+    imm_.set_velocity(v);
+  } else {
+    cv_.set_velocity(v);
+  }
+}
+
 void TrackFilter::shift_position(const Eigen::Vector2f& d) noexcept {
   if (model_ == MotionModel::kTurnImm) {
     imm_.shift_position(d);

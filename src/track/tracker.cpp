@@ -178,6 +178,7 @@ void Tracker::start_track(Track& t, const Measurement& m, const Pose& view, Stam
   t.kf.reset(Eigen::Vector4f(m.center.x(), m.center.y(), 0.f, 0.f), config_.kalman);
   t.positions.clear();
   t.positions.push(m.center.head<2>(), config_.history_length + 1);
+  t.velocities.clear();
   t.edges.clear();
   t.edges.push(m.edges, config_.history_length + 1);
   t.views.clear();
@@ -241,6 +242,7 @@ void Tracker::correct_track(Track& t, const Detection& det, bool own_edge, const
   t.last_measured_stamp = stamp;
   t.z_center = m.center.z();
   t.positions.push(xy, config_.history_length + 1);
+  t.velocities.push(t.kf.velocity(), kMaxTrackHistory);
   t.edges.push(m.edges, config_.history_length + 1);
   t.views.push(view, config_.history_length + 1);
   t.boxes.push(Box3::from_center_size(m.center, m.size), config_.box_history_length);
@@ -499,6 +501,7 @@ void Tracker::coast_unmatched() noexcept {
     ++t.out.missed_frames;
     t.out.detection = -1;
     t.label.missed();
+    if (t.out.missed_frames == 1) coast_on_earlier_velocity(t);
     if (t.out.missed_frames <= config_.max_missed_frames) continue;
     // Only a track whose vote window still says dynamic: it comes back labelled.
     const std::size_t extra = t.label.dynamic() ? config_.reacquire_frames : 0;
@@ -508,6 +511,17 @@ void Tracker::coast_unmatched() noexcept {
       t.dormant = true;
     }
   }
+}
+
+void Tracker::coast_on_earlier_velocity(Track& t) noexcept {
+  const std::size_t skip = config_.coast_velocity_skip;
+  const std::size_t end = std::min(t.velocities.size(), skip + config_.coast_velocity_frames);
+  if (end <= skip) return;
+  Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+  for (std::size_t age = skip; age < end; ++age) sum += t.velocities.at_age(age);
+  const Eigen::Vector2f v = sum / static_cast<float>(end - skip);
+  t.kf.set_velocity(v);
+  t.last_measured_velocity = v;
 }
 
 void Tracker::start_tracks(const Detection* dets, std::size_t count, const Pose& view,

@@ -410,6 +410,31 @@ TEST(TrackFilter, ShiftPositionMovesTheReferenceNotTheMotion) {
   }
 }
 
+// set_velocity replaces the motion and nothing else: a filter on a circle (the IMM holding a
+// turn rate) goes straight on at the new velocity from where it was (both models).
+TEST(TrackFilter, SetVelocityGoesStraightOnFromThePosition) {
+  for (const MotionModel model : {MotionModel::kConstantVelocity, MotionModel::kTurnImm}) {
+    KalmanConfig config;
+    config.model = model;
+    TrackFilter f;
+    f.reset(Eigen::Vector4f(2.f, 0.f, 0.f, 1.f), config);
+    const float dt = 1.f / 30.f;
+    for (int k = 1; k <= 90; ++k) {  // 1 m/s on a 2 m circle
+      const float a = 0.5f * dt * static_cast<float>(k);
+      ASSERT_EQ(f.predict(dt), Status::kOk);
+      const Eigen::Vector4f z(2.f * std::cos(a), 2.f * std::sin(a), -std::sin(a), std::cos(a));
+      ASSERT_EQ(f.update(z), Status::kOk);
+    }
+    const Eigen::Vector2f from = f.position();
+    const Eigen::Vector2f v(0.4f, -0.7f);
+    f.set_velocity(v);
+    EXPECT_EQ(f.position(), from);
+    for (int k = 1; k <= 30; ++k) ASSERT_EQ(f.predict(dt), Status::kOk);
+    EXPECT_LT((f.velocity() - v).norm(), 1e-4f);
+    EXPECT_LT((f.position() - (from + v)).norm(), 1e-3f);
+  }
+}
+
 TEST(TurnImmKalman, NoHeapAllocation) {
   TurnImmKalman f;
   test::AllocationGuard guard;

@@ -594,6 +594,45 @@ TEST(TrackerVelocity, AGrowingBoxWidensTheReportedSigmaByItsCentreSlide) {
   }
 }
 
+// A walker crossing at 1 m/s goes behind something on its way: for its last 4 frames the
+// leading half is hidden, the box shrinks and its centre slides at half the speed, then it is
+// gone. Coasting goes on at the velocity it had before (coast_velocity_frames), not at the
+// filter's, which the sliding frames pulled down.
+TEST(TrackerVelocity, AWalkerGoingBehindSomethingCoastsOnItsVelocityFromBefore) {
+  for (const std::size_t frames : {std::size_t{16}, std::size_t{0}}) {
+    TrackerConfig config;
+    config.coast_velocity_frames = frames;
+    config.correct_near_surface_bias = false;
+    auto tracker = make_tracker(config);
+    const auto walker_y = [](int f) { return -1.f + static_cast<float>(f) / 30.f; };
+    constexpr int kSliding = 40, kHidden = 44;
+    Stamp stamp = 0;
+    for (int f = 0; f < kHidden; ++f) {
+      // The hidden side is the leading one: the box keeps its trailing edge.
+      const float width = f < kSliding ? 0.5f : 0.5f - static_cast<float>(f - kSliding + 1) / 30.f;
+      const float trailing = walker_y(f) - 0.25f;
+      const Detection d = detection(Eigen::Vector3f(4.f, trailing + 0.5f * width, 0.85f),
+                                    Eigen::Vector3f(0.5f, width, 1.7f));
+      ASSERT_EQ(tracker->update(&d, 1, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    ASSERT_EQ(tracker->size(), 1u);
+    ASSERT_TRUE(tracker->obstacle(0).dynamic);
+    ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+    ASSERT_EQ(tracker->size(), 1u);
+    const float first = tracker->obstacle(0).velocity.y();
+    for (int gap = 2; gap <= 3; ++gap) {
+      ASSERT_EQ(tracker->update(nullptr, 0, camera_at(), stamp += kFrame), Status::kOk);
+    }
+    ASSERT_EQ(tracker->size(), 1u);
+    if (frames > 0) {
+      EXPECT_NEAR(first, 1.f, 0.05f);
+      EXPECT_NEAR(tracker->obstacle(0).velocity.y(), 1.f, 0.05f);
+    } else {
+      EXPECT_LT(first, 0.9f) << "the sliding frames should pull the filter's velocity down";
+    }
+  }
+}
+
 TEST(TrackerLabels, ADetectionOnLongOccupiedVoxelsVotesStatic) {
   // The same clean 1 m/s motion: on voxels the map has long held (static_share above the
   // limit, a moving camera sliding its view along a static box) it is never dynamic; on fresh

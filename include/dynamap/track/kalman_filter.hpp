@@ -96,6 +96,8 @@ class ConstantVelocityKalman {
   /// Moves the position estimate by d (a change of the measurement's reference point); the
   /// covariance is unchanged.
   void shift_position(const Eigen::Vector2f& d) noexcept { x_.head<2>() += d; }
+  /// Replaces the velocity estimate by v; the covariance is unchanged.
+  void set_velocity(const Eigen::Vector2f& v) noexcept { x_.tail<2>() = v; }
 
   const Eigen::Vector4f& state() const noexcept { return x_; }
   const Eigen::Matrix4f& covariance() const noexcept { return p_; }
@@ -129,6 +131,10 @@ class TurnImmKalman {
   [[nodiscard]] Status update(const Eigen::Vector2f& z, float noise_scale = 1.f) noexcept;
   /// Moves the position estimate of both modes by d; covariances and mode probabilities unchanged.
   void shift_position(const Eigen::Vector2f& d) noexcept;
+  /// Replaces the velocity of both modes by v and the turn mode's rate by 0 (straight on);
+  /// the modes' covariances and probabilities unchanged (the combined covariance loses the
+  /// modes' spread).
+  void set_velocity(const Eigen::Vector2f& v) noexcept;
 
   /// Combined (probability-weighted) estimate.
   const State& state() const noexcept { return x_; }
@@ -159,6 +165,9 @@ class TrackFilter {
   [[nodiscard]] Status update(const Eigen::Vector4f& z, float noise_scale = 1.f) noexcept;
   /// Moves the position estimate by d (finite), covariance unchanged.
   void shift_position(const Eigen::Vector2f& d) noexcept;
+  /// Replaces the velocity estimate by v (finite); the filter's (or the modes') covariance
+  /// unchanged.
+  void set_velocity(const Eigen::Vector2f& v) noexcept;
   Eigen::Vector2f position() const noexcept;
   Eigen::Vector2f velocity() const noexcept;
   /// Covariance of velocity() ((m/s)^2): the filter's own, combined over the IMM's modes.

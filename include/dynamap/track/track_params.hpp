@@ -97,6 +97,8 @@ inline constexpr Param<TrackerConfig> kTracker[] = {
     {DYNAMAP_PARAM(TrackerConfig, centre_gate), X, "m", 0, kInf, kClosed, kOpen, "or a top-view centre distance below this"},
     {DYNAMAP_PARAM(TrackerConfig, max_missed_frames), X, "frames", 0, kInf, kClosed, kOpen, "frames a track coasts unmeasured before it is dropped"},
     {DYNAMAP_PARAM(TrackerConfig, reacquire_frames), X, "frames", 0, 1000, kClosed, kClosed, "a track whose votes say dynamic is kept this much longer, unpublished, for a detection to take it up again (0: off)"},
+    {DYNAMAP_PARAM(TrackerConfig, coast_velocity_frames), X, "frames", 0, kMaxTrackHistory, kClosed, kClosed, "at its first unmeasured frame a track goes on with its mean velocity over this many measured frames (0: off)"},
+    {DYNAMAP_PARAM(TrackerConfig, coast_velocity_skip), X, "frames", 0, kMaxTrackHistory - 1, kClosed, kClosed, "... leaving out this many of the newest (a walker being hidden slides)"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_time), X, "s", 0, 10, kClosed, kClosed, "a new track where a track labelled dynamic was lost this recently starts dynamic, until a static vote or a missed frame (0: off)"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_radius), X, "m", 0, 10, kClosed, kClosed, "... within this distance of the way from the lost track's last centre to where its velocity would carry it"},
     {DYNAMAP_PARAM(TrackerConfig, inherit_radius_growth), X, "m/s", 0, 10, kClosed, kClosed, "... plus this much per second since the lost track's last measurement"},

@@ -41,6 +41,13 @@ struct TrackerConfig {
   /// it up again with its id, label and history. A walker hidden for a moment by another or a
   /// pillar otherwise came back as a new track that had to earn its label again.
   std::size_t reacquire_frames = 15;
+  /// At its first unmeasured frame a track goes on with the mean of its filter's velocities
+  /// over this many measured frames (0: off, the filter's velocity as it is), leaving out the
+  /// newest coast_velocity_skip of them. A walker is mostly lost to an occluder or the image
+  /// border, and on the frames before, the visible part shrinks and its centre slides: those
+  /// frames' velocity is off by four times the usual error, and coasting carried it on.
+  std::size_t coast_velocity_frames = 16;
+  std::size_t coast_velocity_skip = 2;  ///< newest measured frames the coasting mean leaves out
   /// A new track whose first detection lies where a track labelled dynamic at its last
   /// measurement was lost at most this long ago (s; dropped, or coasting unmatched) starts
   /// labelled dynamic, until a static vote or a missed frame (LabelEvidence::follows_lost_dynamic;
@@ -262,6 +269,7 @@ class Tracker {
     HistoryRing<Box3, kMaxBoxHistory> boxes;
     HistoryRing<Eigen::Vector4f, kMaxTrackHistory> edges;  // detection boxes' top-view min, max
     HistoryRing<Pose, kMaxTrackHistory> views;             // camera pose of each measured frame
+    HistoryRing<Eigen::Vector2f, kMaxTrackHistory> velocities;  // the filter's, when measured
     Eigen::Vector2f last_measured = Eigen::Vector2f::Zero();
     Eigen::Vector2f last_measured_velocity = Eigen::Vector2f::Zero();  // the filter's, then
     Stamp last_measured_stamp = 0;
@@ -292,6 +300,9 @@ class Tracker {
   void predict_tracks(Stamp stamp) noexcept;
   void associate(std::size_t count) noexcept;
   void coast_unmatched() noexcept;
+  /// The filter's velocity replaced by the mean over the measured frames before the newest
+  /// (TrackerConfig::coast_velocity_frames); unchanged when there are none.
+  void coast_on_earlier_velocity(Track& t) noexcept;
   void mark_own_edges(const Detection* dets, std::size_t count) noexcept;
   void start_tracks(const Detection* dets, std::size_t count, const Pose& view,
                     Stamp stamp) noexcept;
