@@ -13,8 +13,9 @@ void LabelState::start(const LabelEvidence& e, const LabelConfig& config) noexce
   ever_free_streak_ = e.in_ever_free && !e.ever_free_overruled ? 1 : 0;
   const bool in_range = config.early_max_depth <= 0.f || e.near_depth <= config.early_max_depth;
   inherited_ = e.follows_lost_dynamic && e.plausible_size && in_range;
-  trusted_ = ever_free_run(e, config) || (inherited_ && e.lost_recently);
-  mode_ = ever_free_run(e, config) || inherited_ ? LabelMode::kDynamic : LabelMode::kStatic;
+  const bool ever_free = ever_free_run(e, config);
+  trusted_ = ever_free || (inherited_ && e.lost_recently);
+  mode_ = ever_free || inherited_ ? LabelMode::kDynamic : LabelMode::kStatic;
 }
 
 void LabelState::measured(const LabelEvidence& e, const ContinuityConfig& continuity,

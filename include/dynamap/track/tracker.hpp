@@ -271,7 +271,7 @@ class Tracker {
     HistoryRing<Pose, kMaxTrackHistory> views;             // camera pose of each measured frame
     HistoryRing<Eigen::Vector2f, kMaxTrackHistory> velocities;  // the filter's, when measured
     Eigen::Vector2f last_measured = Eigen::Vector2f::Zero();
-    Eigen::Vector2f last_measured_velocity = Eigen::Vector2f::Zero();  // the filter's, then
+    Eigen::Vector2f last_measured_velocity = Eigen::Vector2f::Zero();  // then, or the coasting one
     Stamp last_measured_stamp = 0;
     float z_center = 0.f;
     Eigen::Vector3f size = Eigen::Vector3f::Zero();  // estimated full size (fixed once frozen)
@@ -334,10 +334,10 @@ class Tracker {
   /// Deactivates a track and counts it; one labelled dynamic when last measured is remembered.
   void drop_track(Track& t) noexcept;
   /// The detection (measured as m) lies where a track labelled dynamic was lost a moment ago;
-  /// *velocity is then the nearest such track's last measured velocity and *since the seconds
-  /// since its last measurement.
+  /// *velocity is then the nearest such track's velocity at the loss (the one it coasted on)
+  /// and *since_loss the seconds since its last measurement.
   bool follows_lost_dynamic(const Measurement& m, Stamp stamp, Eigen::Vector2f* velocity,
-                            float* since) const noexcept;
+                            float* since_loss) const noexcept;
 
   TrackerConfig config_{};
   int image_width_ = 0;  ///< of the depth images, from init
