@@ -270,6 +270,8 @@ struct MapIntegrator::SequentialCursor {
   const std::uint32_t stop_after;
   const std::uint16_t now_tick, min_age_ticks, static_ticks;
   const float near, spread;  // miss_max_offset, miss_offset_spread in m (near 0: off)
+  const bool backed;         // keep_unknown_backed
+  const DepthView* depth;
   Block* block = nullptr;
   std::size_t sink_entry = 0;  // n when the walk entered a block it could not allocate
   std::uint32_t run = 0;       // consecutive voxels found missed this frame (early stop)
@@ -306,6 +308,14 @@ struct MapIntegrator::SequentialCursor {
   void leave(std::size_t n) noexcept {
     if (block == &map.sink_) k.dropped_updates += sink_entry - n;
   }
+  /// keep_unknown_backed, for a voxel this ray would lower.
+  bool unknown_backed(const Voxel& vx, std::int32_t li) const noexcept {
+    if (!backed || vx.log_odds == kUnknown || vx.log_odds <= q_occupied) return false;
+    constexpr std::int32_t m = kBlockEdge - 1;
+    return map.spares_unknown_backed(bi_ * kBlockEdge + (li & m),
+                                     bj_ * kBlockEdge + ((li >> kBlockBits) & m),
+                                     bk_ * kBlockEdge + (li >> (2 * kBlockBits)), *depth);
+  }
   void miss(Voxel& vx) noexcept {
     const std::int16_t old = vx.log_odds;
     const std::int32_t current = old == kUnknown ? 0 : old;
@@ -339,11 +349,13 @@ struct MapIntegrator::SequentialCursor {
       const std::uint16_t stamp = vx.stamp;
       if (stamp == miss_stamp) return ++run == stop_after;
       run = 0;
-      if (stamp != hit_stamp && !passes_aside(vx, li)) miss(vx);
+      if (stamp != hit_stamp && !passes_aside(vx, li) && !unknown_backed(vx, li)) miss(vx);
     } else {
       // hit_stamp and miss_stamp are consecutive: one unsigned compare tests both. Most visits
       // (near the camera) find the voxel already updated this frame.
-      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u && !passes_aside(vx, li)) miss(vx);
+      if (static_cast<std::uint16_t>(vx.stamp - hit_stamp) > 1u && !passes_aside(vx, li) &&
+          !unknown_backed(vx, li))
+        miss(vx);
     }
     return false;
   }
@@ -371,7 +383,9 @@ void MapIntegrator::carve_free_space(const DepthView& depth) noexcept {
                                       own_surface_min_ticks(),
                                       static_min_ticks(),
                                       miss_near(),
-                                      miss_spread()};
+                                      miss_spread(),
+                                      p_->config.keep_unknown_backed,
+                                      &depth};
   carve_rays<kEarlyStop>(0, rays, depth, camera, cursor, k);
   stats_.rays += k.rays;
   stats_.rays_stopped_early += k.rays_stopped;
@@ -387,6 +401,66 @@ void MapIntegrator::carve_one_walk(const DepthView& depth) noexcept {
   } else {
     carve_free_space<false>(depth);
   }
+}
+
+bool MapIntegrator::spares_unknown_backed(std::int32_t i, std::int32_t j, std::int32_t k,
+                                          const DepthView& depth) const noexcept {
+  // Where a dynamic track has been the rule is off: asked first, it spares the neighbour
+  // lookups for the voxels walkers leave behind, most of the voxels that come here.
+  if (trail_ != nullptr) {
+    const float res = p_->resolution;
+    if (trail_->recent(Eigen::Vector3f((static_cast<float>(i) + 0.5f) * res,
+                                       (static_cast<float>(j) + 0.5f) * res,
+                                       (static_cast<float>(k) + 0.5f) * res))) {
+      return false;
+    }
+  }
+  static constexpr std::int32_t kFaces[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                                {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
+  const BlockStore& store = *store_;
+  // Most neighbours share the voxel's block: look each block up once.
+  std::int32_t bi = i >> kBlockBits, bj = j >> kBlockBits, bk = k >> kBlockBits;
+  const Block* block = store.find(bi, bj, bk);
+  for (const auto& d : kFaces) {
+    const std::int32_t ni = i + d[0], nj = j + d[1], nk = k + d[2];
+    const std::int32_t nbi = ni >> kBlockBits, nbj = nj >> kBlockBits, nbk = nk >> kBlockBits;
+    if (nbi != bi || nbj != bj || nbk != bk) {
+      bi = nbi;
+      bj = nbj;
+      bk = nbk;
+      block = store.find(bi, bj, bk);
+    }
+    if (block != nullptr && block->voxels[local_index(ni, nj, nk)].log_odds != kUnknown) continue;
+    if (unseen_in_view(ni, nj, nk, depth)) return true;
+  }
+  return false;
+}
+
+/// Whether a never-observed voxel could not have been seen this frame although it lies ahead of
+/// the camera within range: beyond the image's edge (nothing tells what is there), or hidden,
+/// the pixel looking through its centre having measured a surface more than a voxel and the
+/// depth noise in front of it. Unknown elsewhere in the view means merely not reached yet.
+bool MapIntegrator::unseen_in_view(std::int32_t i, std::int32_t j, std::int32_t k,
+                                   const DepthView& depth) const noexcept {
+  const float res = p_->resolution;
+  const Eigen::Array4f d4 =
+      Eigen::Array4f((static_cast<float>(i) + 0.5f) * res, (static_cast<float>(j) + 0.5f) * res,
+                     (static_cast<float>(k) + 0.5f) * res, 0.f) -
+      g_.origin4;
+  const float z = (d4 * g_.forward_dir).sum();
+  if (!(z > 0.f) || z > p_->config.max_depth) return false;
+  const float y = (d4 * g_.down_dir).sum();
+  const float x = (d4 * g_.right_dir).sum();
+  const CameraIntrinsics& cam = *g_.cam;
+  const float u = cam.cx + cam.fx * x / z, v = cam.cy + cam.fy * y / z;
+  if (!(std::isfinite(u) && std::isfinite(v))) return false;
+  if (!(u >= 0.f && v >= 0.f && u < static_cast<float>(depth.width) &&
+        v < static_cast<float>(depth.height))) {
+    return true;
+  }
+  const std::uint16_t raw = depth.at(static_cast<int>(u), static_cast<int>(v));
+  const float margin = res + p_->config.carve_gap_quadratic * z * z;
+  return raw != 0 && static_cast<float>(raw) * g_.depth_scale < z - margin;
 }
 
 }  // namespace dynamap::detail

@@ -113,6 +113,7 @@ void MapIntegrator::set_frame_geometry(const CameraIntrinsics& cam,
   }
   // Element by element: the same values as a comma initialiser from R.col(), without the
   // packet load past R's end that GCC 12 -O3 reports (-Warray-bounds) once this is inlined.
+  g_.right_dir = Eigen::Array4f(R(0, 0), R(1, 0), R(2, 0), 0.f);
   g_.down_dir = Eigen::Array4f(R(0, 1), R(1, 1), R(2, 1), 0.f);
   g_.forward_dir = Eigen::Array4f(R(0, 2), R(1, 2), R(2, 2), 0.f);
   if (grid_enabled_) {

@@ -27,8 +27,11 @@ struct MapIntegrator::TileCursor {
   const std::uint32_t stop_after;
   const std::int32_t q_occupied;
   const std::uint16_t now_tick, min_age_ticks, static_ticks;
-  const bool read_blocks;    // keep_own_surface, miss_max_offset: reads voxels pass 1 did not touch
+  const bool read_blocks;    // keep_own_surface, miss_max_offset, keep_unknown_backed: reads
+                             // voxels pass 1 did not touch
   const float near, spread;  // miss_max_offset, miss_offset_spread in m (near 0: off)
+  const bool backed;         // keep_unknown_backed
+  const DepthView* depth;
   const Block* block = nullptr;
   bool unallocated = false;  // block is empty_block_: its voxels were never observed
   std::uint64_t* marks = nullptr;
@@ -83,6 +86,17 @@ struct MapIntegrator::TileCursor {
     marks = tile.marks[set - 1u].data();
   }
   void leave(std::size_t) noexcept {}
+  /// As the one walk's cursor, from the voxels' states before this frame's misses (the tiles
+  /// only mark; the one walk reads the misses its earlier rays applied).
+  bool unknown_backed(std::int32_t li) const noexcept {
+    if (!backed) return false;
+    const std::int16_t q = block->voxels[static_cast<std::size_t>(li)].log_odds;
+    if (q == kUnknown || q <= q_occupied) return false;
+    constexpr std::int32_t m = kBlockEdge - 1;
+    return map.spares_unknown_backed(bi_ * kBlockEdge + (li & m),
+                                     bj_ * kBlockEdge + ((li >> kBlockBits) & m),
+                                     bk_ * kBlockEdge + (li >> (2 * kBlockBits)), *depth);
+  }
   /// Whether the voxel is occupied (long enough) before this frame's carving, or hit this frame.
   bool on_surface(std::size_t li) const noexcept {
     const Voxel& vx = block->voxels[li];
@@ -104,7 +118,8 @@ struct MapIntegrator::TileCursor {
       return false;
     }
     run = 0;
-    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp && !passes_aside(li)) {
+    if (block->voxels[static_cast<std::size_t>(li)].stamp != hit_stamp && !passes_aside(li) &&
+        !unknown_backed(li)) {
       word |= bit;
     }
     return false;
@@ -133,9 +148,12 @@ void MapIntegrator::carve_tile(std::size_t t, const DepthView& depth) noexcept {
                                 store_->since_tick(),
                                 own_surface_min_ticks(),
                                 static_min_ticks(),
-                                p_->config.keep_own_surface || p_->config.miss_max_offset > 0.f,
+                                p_->config.keep_own_surface || p_->config.miss_max_offset > 0.f ||
+                                    p_->config.keep_unknown_backed,
                                 miss_near(),
-                                miss_spread()};
+                                miss_spread(),
+                                p_->config.keep_unknown_backed,
+                                &depth};
   carve_rays<kEarlyStop>(tile.ray_begin, tile.ray_end, depth, camera, cursor, tile.counters);
   for (std::size_t s = 0; s < tile.cell_count; ++s) {
     std::uint64_t any = 0;

@@ -93,6 +93,7 @@ DYNAMAP_SECTION(Fragments, "fragments.", params::kDetectionRefiner, c.fragments)
 DYNAMAP_SECTION(EverFree, "ever_free.", params::kEverFree, c.ever_free);
 DYNAMAP_SECTION(Cleaner, "cleaner.", params::kDynamicRegionCleaner, c.cleaner);
 DYNAMAP_OWN_SECTION(OwnClean, 8, 9);
+DYNAMAP_SECTION(Trail, "trail.", params::kTrailGrid, c.trail);
 DYNAMAP_SECTION(Paths, "predictor.paths.", params::kPathLibrary, c.predictor.paths);
 DYNAMAP_SECTION(Clearance, "predictor.clearance.", params::kClearance, c.predictor.clearance);
 DYNAMAP_SECTION(Predictor, "predictor.", params::kMarkovPredictor, c.predictor);
@@ -182,7 +183,7 @@ constexpr std::array<Parameter, N> with_pipeline_bounds(std::array<Parameter, N>
 
 constexpr auto kTable = with_pipeline_bounds(
     assemble<OwnHead, Map, Detector, Refiner, Kalman, Imm, Continuity, Label, Tracker, Fragments,
-             EverFree, Cleaner, OwnClean, Paths, Clearance, Predictor, FarField, OwnTail>());
+             EverFree, Cleaner, OwnClean, Trail, Paths, Clearance, Predictor, FarField, OwnTail>());
 
 constexpr bool paths_unique() noexcept {
   for (std::size_t i = 0; i < kTable.size(); ++i) {

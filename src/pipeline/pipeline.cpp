@@ -50,6 +50,8 @@ Status Pipeline::init(const PipelineConfig& config, ConfigError* error) noexcept
   if (ok(s)) s = history_.init(config.clean_history_max_age_ns);
   if (ok(s)) s = cleaner_.init(config.cleaner, floor_top);
   if (ok(s)) s = ever_free_.init(config.ever_free, config.ground_height);
+  if (ok(s)) s = trail_.init(config.trail);
+  if (ok(s)) map_.set_trail(&trail_);
   if (ok(s)) s = markov_.init(config.predictor);
   if (ok(s)) s = far_field_.init(config.far_field, config.ground_height);
   if (ok(s)) {
@@ -221,6 +223,9 @@ Status Pipeline::integrate(const Frame& frame, FrameWork& work, DetectionJob* jo
   // did, it changed nothing (detection runs only for an accepted frame), and neither has any
   // other stage yet.
   Status s = Status::kOk;
+  // Where the tracks labelled dynamic up to the last frame have been.
+  trail_.next_frame();
+  trail_.mark_dynamic_tracks(tracker_);
   if (job == nullptr) {
     s = map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp, &team_);
   } else {

@@ -1256,10 +1256,11 @@ std::uint64_t integrate_walk(const OccupancyMapConfig& cfg, int frames) {
 // -ffast-math, no FP contraction under -std=c++17), so they must not change with optimisations.
 TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
   OccupancyMapConfig cfg;
-  cfg.free_ray_early_stop = 0;    // the exact walk (the recorded values predate early stop)
-  cfg.carve_gap_quadratic = 0.f;  // and the noise gap
-  cfg.keep_own_surface = false;   // and sparing a ray's own surface
-  cfg.miss_max_offset = 0.f;      // and the centre rule
+  cfg.free_ray_early_stop = 0;      // the exact walk (the recorded values predate early stop)
+  cfg.carve_gap_quadratic = 0.f;    // and the noise gap
+  cfg.keep_own_surface = false;     // and sparing a ray's own surface
+  cfg.miss_max_offset = 0.f;        // and the centre rule
+  cfg.keep_unknown_backed = false;  // and sparing faces whose inside was never seen
   cfg.pixel_stride = 1;
   const std::uint64_t merged = integrate_walk(cfg, 12);
   cfg.merge_rays_per_voxel = false;
@@ -1270,6 +1271,7 @@ TEST(OccupancyMap, IntegrationMatchesRecordedChecksums) {
   tiny.carve_gap_quadratic = 0.f;
   tiny.keep_own_surface = false;
   tiny.miss_max_offset = 0.f;
+  tiny.keep_unknown_backed = false;
   tiny.max_blocks = 96;                      // evicts every frame
   tiny.max_voxel_visits_per_frame = 40'000;  // and hits the visit cap
   const std::uint64_t evicting = integrate_walk(tiny, 12);
@@ -1493,6 +1495,54 @@ TEST(OccupancyMap, ASlowWorkerDelaysTheFrameButNeverChangesIt) {
   EXPECT_EQ(integrate_walk_with_updates(cfg, 8, 2, std::chrono::milliseconds(3), true, &delays),
             one);
   EXPECT_GE(delays, 8);  // at least once per frame: the team did run the frames
+}
+
+/// keep_unknown_backed: the log-odds after one frame of an occupied voxel `v` (set by hand, its
+/// surroundings never observed) that the rays of a wall 3 m ahead pass through. The camera at
+/// (0, 0, 1.05) looks along +x; column 156, the last sampled one, crosses the voxel at x 1.0..1.1,
+/// y -0.9..-0.8 (`at_edge` below), most of whose neighbours lie beyond the image's right edge.
+float backed_voxel_after_a_frame(const OccupancyMapConfig& cfg, const Vec3& v,
+                                 const TrailGrid* trail = nullptr, TaskTeam* team = nullptr) {
+  auto map = make_map(cfg);
+  map->set_trail(trail);
+  EXPECT_EQ(map->set_log_odds(v, 2.f), Status::kOk);
+  const CameraIntrinsics cam = small_camera();
+  const Pose pose = make_pose(Vec3(0.f, 0.f, 1.05f), 0.f);
+  const DepthImage img = render(wall_scene(3.f), cam, pose);
+  EXPECT_EQ(map->integrate(img.view, cam, pose, kFrameNs, team), Status::kOk);
+  return map->log_odds(v);
+}
+
+TEST(OccupancyMap, AFaceWhoseInsideIsBeyondTheViewIsNotLoweredUnlessADynamicTrackWasThere) {
+  OccupancyMapConfig cfg;
+  cfg.miss_max_offset = 0.f;                 // every voxel a ray crosses is lowered
+  cfg.free_ray_early_stop = 0;               // by every ray
+  const Vec3 at_edge(1.05f, -0.85f, 1.05f);  // neighbours at +-x, -y and +-z beyond the edge
+  const Vec3 in_view(2.05f, 0.05f, 1.05f);   // every neighbour in view, nothing in front of it
+  cfg.keep_unknown_backed = false;
+  const float lowered = backed_voxel_after_a_frame(cfg, at_edge);
+  EXPECT_LT(lowered, 2.f - 0.5f);  // the column does cross it
+  EXPECT_LT(backed_voxel_after_a_frame(cfg, in_view), 2.f - 0.5f);
+
+  cfg.keep_unknown_backed = true;
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, at_edge), 2.f, kQuantum);
+  // Unknown around it but in view and not hidden: merely not reached yet, lowered as before.
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, in_view), lowered, kQuantum);
+  // Where a dynamic track has been, a walker leaving the view looks the same: lowered.
+  TrailGrid trail;
+  ASSERT_EQ(trail.init(TrailGridConfig{}), Status::kOk);
+  trail.mark(Box3{Vec3(0.5f, -1.2f, 0.f), Vec3(1.0f, -0.7f, 1.8f)});
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, at_edge, &trail), lowered, kQuantum);
+  TrailGrid elsewhere;
+  ASSERT_EQ(elsewhere.init(TrailGridConfig{}), Status::kOk);
+  elsewhere.mark(Box3{Vec3(2.5f, 1.f, 0.f), Vec3(3.0f, 1.5f, 1.8f)});
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, at_edge, &elsewhere), 2.f, kQuantum);
+  // The tiled carving applies the same rule.
+  cfg.carve_tiles = 4;
+  const auto team = make_team(2);
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, at_edge, nullptr, team.get()), 2.f, kQuantum);
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, at_edge, &trail, team.get()), lowered, kQuantum);
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, in_view, nullptr, team.get()), lowered, kQuantum);
 }
 
 TEST(OccupancyMap, TilesAreValidated) {

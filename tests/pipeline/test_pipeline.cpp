@@ -272,6 +272,34 @@ TEST(Pipeline, TracksAWalkerAsDynamicAndACrateAsStatic) {
                                                  Eigen::Vector3f(5.0f, -2.f, 1.2f), nullptr));
 }
 
+// A walker who walks out of the view at its side leaves nothing in the map, although the space
+// beyond the image's edge was never observed: the map keeps occupied voxels backed by such
+// space only where no dynamic track has been (map.keep_unknown_backed, TrailGrid).
+TEST(Pipeline, AWalkerLeavingTheViewAtItsSideLeavesNoTrail) {
+  auto p = std::make_unique<Pipeline>();
+  auto out = std::make_unique<FrameOutput>();
+  PipelineConfig cfg = small_camera_config();
+  cfg.cleaner.max_voxels_per_frame = 1;  // the cleaner idle: the map's own misses must do it
+  ASSERT_EQ(p->init(cfg), Status::kOk);
+  WalkerScenario s;
+  // At x = 3 m the view ends at y = 1.6 m; the walker is out of it from frame 96 on.
+  for (int i = 0; i < 150; ++i) {
+    ASSERT_EQ(p->process(s.frame(i, cfg.camera), *out), Status::kOk) << "frame " << i;
+  }
+  std::size_t left = 0;
+  for (float x = 2.5f; x <= 3.5f; x += 0.05f) {
+    for (float y = 0.8f; y <= 1.8f; y += 0.05f) {
+      for (float z = 0.3f; z <= 1.7f; z += 0.1f) {
+        left += p->map().is_occupied(Eigen::Vector3f(x, y, z)) ? 1u : 0u;
+      }
+    }
+  }
+  EXPECT_EQ(left, 0u) << "walker voxels left at the view's edge";
+  // The wall behind stays.
+  EXPECT_TRUE(p->map().first_occupied_on_segment(Eigen::Vector3f(4.0f, 1.f, 1.2f),
+                                                 Eigen::Vector3f(5.0f, 1.f, 1.2f), nullptr));
+}
+
 /// A dark box as a stereo camera sees it: 60 % of its surface returns 0, in 0.15 m cells of
 /// the surface (fixed on the box, redrawn every 30 frames).
 void drop_dark_patches(const test::WorldScene& scene, const Box3& box, const CameraIntrinsics& cam,

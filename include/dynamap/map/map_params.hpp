@@ -9,6 +9,7 @@
 #include "dynamap/map/ever_free_grid.hpp"
 #include "dynamap/map/map_refiner.hpp"
 #include "dynamap/map/occupancy_map.hpp"
+#include "dynamap/map/trail_grid.hpp"
 
 namespace dynamap::params {
 using namespace param_rows;  // NOLINT(google-build-using-namespace): U, C, X, kOpen, ...
@@ -33,6 +34,7 @@ inline constexpr Param<OccupancyMapConfig> kOccupancyMap[] = {
     {DYNAMAP_PARAM(OccupancyMapConfig, keep_own_surface), X, "", 0, 1, kClosed, kClosed, "a hit ray does not carve the occupied voxels next to its end (its own surface seen at a grazing angle)"},
     {DYNAMAP_PARAM(OccupancyMapConfig, miss_max_offset), X, "voxel", 0, 0.87f, kClosed, kClosed, "a ray lowers an unknown voxel, or one occupied for 3 x map.own_surface_min_frames, only when it passes this close to the voxel's centre, in voxel edges (0: every voxel it crosses)"},
     {DYNAMAP_PARAM(OccupancyMapConfig, miss_offset_spread), X, "voxel", 0, 0.87f, kClosed, kClosed, "... or this close times (distance from the camera / ray length), whichever is larger: merged rays are about a voxel apart at their ends"},
+    {DYNAMAP_PARAM(OccupancyMapConfig, keep_unknown_backed), X, "", 0, 1, kClosed, kClosed, "a miss does not lower an occupied voxel with a never-observed face neighbour beyond the image's edge or hidden behind this frame's surface (a box face whose inside the camera never saw), except where a dynamic track has been (trail.*)"},
     {DYNAMAP_PARAM(OccupancyMapConfig, own_surface_min_frames), X, "frames", 0, 65535, kClosed, kClosed, "map.keep_own_surface spares only voxels occupied at least this long (0: any)"},
     {DYNAMAP_PARAM(OccupancyMapConfig, pixel_margin), X, "px", 0, kMaxImageHeight, kClosed, kClosed, "image border left out of the map update"},
     {DYNAMAP_PARAM(OccupancyMapConfig, pixel_stride), C, "px", 1, kMaxImageWidth, kClosed, kClosed, "every n-th pixel of every n-th row is a ray"},
@@ -107,6 +109,16 @@ inline constexpr Param<EverFreeConfig> kEverFree[] = {
     // clang-format on
 };
 static_assert(paths_unique(kEverFree));
+
+/// The parameters of TrailGridConfig, one row per field (PipelineConfig prefix "trail.").
+inline constexpr Param<TrailGridConfig> kTrailGrid[] = {
+    // clang-format off
+    {DYNAMAP_PARAM(TrailGridConfig, resolution), X, "m", 0.05, 2, kClosed, kClosed, "cell edge of the grid of where dynamic tracks have been (the grid spans 64 cells per axis and wraps)"},
+    {DYNAMAP_PARAM(TrailGridConfig, frames), X, "frames", 1, 100000, kClosed, kClosed, "a dynamic track's box keeps map.keep_unknown_backed off under it this long"},
+    {DYNAMAP_PARAM(TrailGridConfig, margin), X, "m", 0, 2, kClosed, kClosed, "added around each box"},
+    // clang-format on
+};
+static_assert(paths_unique(kTrailGrid));
 
 /// The parameters of DynamicRegionCleanerConfig, one row per field (PipelineConfig prefix
 /// "cleaner.").

@@ -72,6 +72,9 @@ class OccupancyMap {
                                          TaskTeam& team) noexcept;
   void carve_share(unsigned member) noexcept { integrator_.carve_share(member); }
   void end_integration() noexcept { integrator_.finish(); }
+  /// Where keep_unknown_backed does not apply: the cells `trail` marks as recently crossed by
+  /// dynamic tracks (the pipeline's; nullptr, the default: everywhere). Read while integrating.
+  void set_trail(const TrailGrid* trail) noexcept { integrator_.set_trail(trail); }
 
   Occupancy state(const Eigen::Vector3f& p) const noexcept;
   Occupancy state(VoxelKey key) const noexcept;

@@ -79,6 +79,12 @@ struct OccupancyMapConfig {
   float miss_offset_spread = 0.71f;
   /// keep_own_surface spares only voxels occupied for at least this many frames (0: any).
   int own_surface_min_frames = 30;
+  /// A miss does not lower an occupied voxel with a never-observed face neighbour that lies
+  /// beyond this frame's image edge or hidden behind the surface this frame measured there: a
+  /// box face whose inside the camera never saw, lowered by rays along it at the view's side
+  /// edge. A walker leaving the view looks the same, so not where set_trail()'s grid says a
+  /// dynamic track has been.
+  bool keep_unknown_backed = true;
   int pixel_margin = 2, pixel_stride = 2;
   Eigen::Vector3f local_half_extent{5.f, 5.f, 3.f};    ///< only this region around the camera is
                                                        ///< updated (rays are clipped to it)

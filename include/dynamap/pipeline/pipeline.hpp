@@ -18,6 +18,7 @@
 #include "dynamap/map/dynamic_region_cleaner.hpp"
 #include "dynamap/map/map_refiner.hpp"
 #include "dynamap/map/occupancy_map.hpp"
+#include "dynamap/map/trail_grid.hpp"
 #include "dynamap/pipeline/parameters.hpp"
 #include "dynamap/pipeline/pipeline_config.hpp"
 #include "dynamap/pipeline/stage_timing.hpp"
@@ -209,6 +210,8 @@ class Pipeline {
   CleanHistory history_{};
   DynamicRegionCleaner cleaner_{};
   EverFreeGrid ever_free_{};
+  TrailGrid
+      trail_{};  ///< where dynamic tracks have been: the map's keep_unknown_backed is off there
   MarkovPredictor markov_{};
   LinearPredictor linear_{};
 

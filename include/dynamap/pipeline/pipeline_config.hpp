@@ -17,6 +17,7 @@
 #include "dynamap/map/ever_free_grid.hpp"
 #include "dynamap/map/map_refiner.hpp"
 #include "dynamap/map/occupancy_map.hpp"
+#include "dynamap/map/trail_grid.hpp"
 #include "dynamap/predict/far_field_layer.hpp"
 #include "dynamap/predict/markov_predictor.hpp"
 #include "dynamap/predict/prediction.hpp"
@@ -78,6 +79,7 @@ struct PipelineConfig {
   TrackerConfig tracker{};
   DynamicRegionCleanerConfig cleaner{};
   EverFreeConfig ever_free{};  ///< ever-free space, the tracker's dynamic evidence
+  TrailGridConfig trail{};     ///< where dynamic tracks have been (map.keep_unknown_backed)
   MarkovPredictorConfig predictor{};
   /// Far-field top-view layer the Markov predictor reads beyond the map's range (not the linear
   /// baseline); its update is Stage::kFarField.

@@ -19,6 +19,7 @@
 #include "dynamap/core/types.hpp"
 #include "dynamap/map/detail/block_store.hpp"
 #include "dynamap/map/occupancy_map_config.hpp"
+#include "dynamap/map/trail_grid.hpp"
 
 namespace dynamap::detail {
 
@@ -59,6 +60,9 @@ class MapIntegrator {
   bool frame_open() const noexcept { return team_ != nullptr; }
 
   const IntegrationStats& stats() const noexcept { return stats_; }
+  /// keep_unknown_backed does not apply where `trail` (the caller's, or none) says a dynamic
+  /// track has been.
+  void set_trail(const TrailGrid* trail) noexcept { trail_ = trail; }
   /// A block allocated outside integration (OccupancyMap::set_log_odds()) counts in the stats.
   void count_allocated_block() noexcept { ++stats_.blocks_allocated; }
 
@@ -194,6 +198,11 @@ class MapIntegrator {
                   const IndexVec& camera, Cursor& cursor, CarveCounters& k) const noexcept;
   template <bool kEarlyStop>
   void carve_free_space(const DepthView& depth) noexcept;
+  /// keep_unknown_backed, for the occupied voxel (i, j, k) a miss would lower; both walks.
+  bool spares_unknown_backed(std::int32_t i, std::int32_t j, std::int32_t k,
+                             const DepthView& depth) const noexcept;
+  bool unseen_in_view(std::int32_t i, std::int32_t j, std::int32_t k,
+                      const DepthView& depth) const noexcept;
   template <bool kEarlyStop>
   void carve_tile(std::size_t tile, const DepthView& depth) noexcept;
   /// Pass 2 in one walk on this thread (carve_tiles = 0).
@@ -222,6 +231,7 @@ class MapIntegrator {
     Eigen::Vector3f origin = Eigen::Vector3f::Zero();
     Eigen::Array4f origin4 = Eigen::Array4f::Zero();       ///< origin, lane 3 = 0
     Eigen::Array4f half_extent4 = Eigen::Array4f::Zero();  ///< local region, lane 3 = inf
+    Eigen::Array4f right_dir = Eigen::Array4f::Zero();     ///< R.col(0)
     Eigen::Array4f down_dir = Eigen::Array4f::Zero();      ///< R.col(1)
     Eigen::Array4f forward_dir = Eigen::Array4f::Zero();   ///< R.col(2)
     const CameraIntrinsics* cam = nullptr;
@@ -268,6 +278,7 @@ class MapIntegrator {
   };
 
   const MapParams* p_;
+  const TrailGrid* trail_ = nullptr;
   BlockStore* store_;
   IntegrationStats stats_{};
   std::array<std::uint32_t, kMaxRaysPerFrame> rays_{};  ///< pixel index (v * width + u)
