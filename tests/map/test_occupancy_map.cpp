@@ -1502,13 +1502,14 @@ TEST(OccupancyMap, ASlowWorkerDelaysTheFrameButNeverChangesIt) {
 /// (0, 0, 1.05) looks along +x; column 156, the last sampled one, crosses the voxel at x 1.0..1.1,
 /// y -0.9..-0.8 (`at_edge` below), most of whose neighbours lie beyond the image's right edge.
 float backed_voxel_after_a_frame(const OccupancyMapConfig& cfg, const Vec3& v,
-                                 const TrailGrid* trail = nullptr, TaskTeam* team = nullptr) {
+                                 const TrailGrid* trail = nullptr, TaskTeam* team = nullptr,
+                                 const Scene& scene = wall_scene(3.f)) {
   auto map = make_map(cfg);
   map->set_trail(trail);
   EXPECT_EQ(map->set_log_odds(v, 2.f), Status::kOk);
   const CameraIntrinsics cam = small_camera();
   const Pose pose = make_pose(Vec3(0.f, 0.f, 1.05f), 0.f);
-  const DepthImage img = render(wall_scene(3.f), cam, pose);
+  const DepthImage img = render(scene, cam, pose);
   EXPECT_EQ(map->integrate(img.view, cam, pose, kFrameNs, team), Status::kOk);
   return map->log_odds(v);
 }
@@ -1543,6 +1544,26 @@ TEST(OccupancyMap, AFaceWhoseInsideIsBeyondTheViewIsNotLoweredUnlessADynamicTrac
   EXPECT_NEAR(backed_voxel_after_a_frame(cfg, at_edge, nullptr, team.get()), 2.f, kQuantum);
   EXPECT_NEAR(backed_voxel_after_a_frame(cfg, at_edge, &trail, team.get()), lowered, kQuantum);
   EXPECT_NEAR(backed_voxel_after_a_frame(cfg, in_view, nullptr, team.get()), lowered, kQuantum);
+}
+
+TEST(OccupancyMap, AFaceWhoseInsideIsHiddenBehindANearerSurfaceIsNotLowered) {
+  OccupancyMapConfig cfg;
+  cfg.miss_max_offset = 0.f;
+  cfg.free_ray_early_stop = 0;
+  // The voxel at x 2.0..2.1, y 0.0..0.1 in front of the wall at 3 m; a board 1 m ahead covers
+  // y >= 0.05 (seen from the camera: the pixels through the voxel's +y neighbour, not the
+  // sampled columns crossing the voxel itself, nor any crossing that neighbour).
+  const Vec3 v(2.05f, 0.05f, 1.05f);
+  Scene scene = wall_scene(3.f);
+  scene.boxes.push_back(Box3{Vec3(1.0f, 0.05f, 0.f), Vec3(1.1f, 1.0f, 2.5f)});
+  cfg.keep_unknown_backed = false;
+  const float lowered = backed_voxel_after_a_frame(cfg, v, nullptr, nullptr, scene);
+  EXPECT_LT(lowered, 2.f - 0.5f);
+  cfg.keep_unknown_backed = true;
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, v, nullptr, nullptr, scene), 2.f, kQuantum);
+  cfg.carve_tiles = 4;
+  const auto team = make_team(2);
+  EXPECT_NEAR(backed_voxel_after_a_frame(cfg, v, nullptr, team.get(), scene), 2.f, kQuantum);
 }
 
 TEST(OccupancyMap, TilesAreValidated) {
