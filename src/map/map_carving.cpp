@@ -311,10 +311,7 @@ struct MapIntegrator::SequentialCursor {
   /// keep_unknown_backed, for a voxel this ray would lower.
   bool unknown_backed(const Voxel& vx, std::int32_t li) const noexcept {
     if (!backed || vx.log_odds == kUnknown || vx.log_odds <= q_occupied) return false;
-    constexpr std::int32_t m = kBlockEdge - 1;
-    return map.spares_unknown_backed(bi_ * kBlockEdge + (li & m),
-                                     bj_ * kBlockEdge + ((li >> kBlockBits) & m),
-                                     bk_ * kBlockEdge + (li >> (2 * kBlockBits)), *depth);
+    return map.spares_unknown_backed(bi_, bj_, bk_, li, *depth);
   }
   void miss(Voxel& vx) noexcept {
     const std::int16_t old = vx.log_odds;
@@ -403,8 +400,12 @@ void MapIntegrator::carve_one_walk(const DepthView& depth) noexcept {
   }
 }
 
-bool MapIntegrator::spares_unknown_backed(std::int32_t i, std::int32_t j, std::int32_t k,
-                                          const DepthView& depth) const noexcept {
+bool MapIntegrator::spares_unknown_backed(std::int32_t bi, std::int32_t bj, std::int32_t bk,
+                                          std::int32_t li, const DepthView& depth) const noexcept {
+  constexpr std::int32_t m = kBlockEdge - 1;
+  const std::int32_t i = bi * kBlockEdge + (li & m);
+  const std::int32_t j = bj * kBlockEdge + ((li >> kBlockBits) & m);
+  const std::int32_t k = bk * kBlockEdge + (li >> (2 * kBlockBits));
   // Where a dynamic track has been the rule is off: asked first, it spares the neighbour
   // lookups for the voxels walkers leave behind, most of the voxels that come here.
   if (trail_ != nullptr) {
@@ -419,7 +420,6 @@ bool MapIntegrator::spares_unknown_backed(std::int32_t i, std::int32_t j, std::i
                                                 {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
   const BlockStore& store = *store_;
   // Most neighbours share the voxel's block: look each block up once.
-  std::int32_t bi = i >> kBlockBits, bj = j >> kBlockBits, bk = k >> kBlockBits;
   const Block* block = store.find(bi, bj, bk);
   for (const auto& d : kFaces) {
     const std::int32_t ni = i + d[0], nj = j + d[1], nk = k + d[2];

@@ -92,10 +92,7 @@ struct MapIntegrator::TileCursor {
     if (!backed) return false;
     const std::int16_t q = block->voxels[static_cast<std::size_t>(li)].log_odds;
     if (q == kUnknown || q <= q_occupied) return false;
-    constexpr std::int32_t m = kBlockEdge - 1;
-    return map.spares_unknown_backed(bi_ * kBlockEdge + (li & m),
-                                     bj_ * kBlockEdge + ((li >> kBlockBits) & m),
-                                     bk_ * kBlockEdge + (li >> (2 * kBlockBits)), *depth);
+    return map.spares_unknown_backed(bi_, bj_, bk_, li, *depth);
   }
   /// Whether the voxel is occupied (long enough) before this frame's carving, or hit this frame.
   bool on_surface(std::size_t li) const noexcept {

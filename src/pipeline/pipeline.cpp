@@ -223,9 +223,12 @@ Status Pipeline::integrate(const Frame& frame, FrameWork& work, DetectionJob* jo
   // did, it changed nothing (detection runs only for an accepted frame), and neither has any
   // other stage yet.
   Status s = Status::kOk;
-  // Where the tracks labelled dynamic up to the last frame have been.
-  trail_.next_frame();
-  trail_.mark_dynamic_tracks(tracker_);
+  // Where the tracks labelled dynamic up to the last frame have been; only the map's
+  // keep_unknown_backed asks.
+  if (config_.map.keep_unknown_backed) {
+    trail_.next_frame();
+    trail_.mark_dynamic_tracks(tracker_);
+  }
   if (job == nullptr) {
     s = map_.integrate(frame.depth, config_.camera, frame.T_map_camera, frame.stamp, &team_);
   } else {

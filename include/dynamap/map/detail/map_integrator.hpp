@@ -198,8 +198,9 @@ class MapIntegrator {
                   const IndexVec& camera, Cursor& cursor, CarveCounters& k) const noexcept;
   template <bool kEarlyStop>
   void carve_free_space(const DepthView& depth) noexcept;
-  /// keep_unknown_backed, for the occupied voxel (i, j, k) a miss would lower; both walks.
-  bool spares_unknown_backed(std::int32_t i, std::int32_t j, std::int32_t k,
+  /// keep_unknown_backed, for the occupied voxel li of block (bi, bj, bk) a miss would lower;
+  /// both walks.
+  bool spares_unknown_backed(std::int32_t bi, std::int32_t bj, std::int32_t bk, std::int32_t li,
                              const DepthView& depth) const noexcept;
   bool unseen_in_view(std::int32_t i, std::int32_t j, std::int32_t k,
                       const DepthView& depth) const noexcept;
