@@ -78,6 +78,7 @@ void EverFreeGrid::mark_hit(const Eigen::Vector3f& p) noexcept {
   c->frame = frame_;
   c->flags = static_cast<std::uint8_t>(c->flags | kHit);
   c->free_run = 0;
+  c->flags = static_cast<std::uint8_t>(c->flags & ~kWhole);
   if (c->hit_run < 255) ++c->hit_run;
   if (c->hit_run >= config_.forget_frames) c->flags = static_cast<std::uint8_t>(c->flags & ~kEver);
   block_neighbours(kx, ky, kz);
@@ -92,8 +93,23 @@ void EverFreeGrid::block_neighbours(int kx, int ky, int kz) noexcept {
       if (dx == 0 && dy == 0) continue;
       Cell* n = cell(kx + dx, ky + dy, kz, true);
       n->free_run = 0;
+      n->flags = static_cast<std::uint8_t>(n->flags & ~kWhole);
     }
   }
+}
+
+bool EverFreeGrid::inside_view(int kx, int ky, int kz) const noexcept {
+  const float r = config_.resolution;
+  const Eigen::Vector3f centre((static_cast<float>(kx) + 0.5f) * r,
+                               (static_cast<float>(ky) + 0.5f) * r,
+                               z0_ + (static_cast<float>(kz) + 0.5f) * r);
+  const Eigen::Vector3f d = centre - view_origin_;
+  for (int i = 0; i < view_planes_; ++i) {
+    if (view_normals_[static_cast<std::size_t>(i)].dot(d) <
+        view_reach_[static_cast<std::size_t>(i)])
+      return false;
+  }
+  return true;
 }
 
 void EverFreeGrid::mark_free(int kx, int ky, int kz) noexcept {
@@ -104,7 +120,14 @@ void EverFreeGrid::mark_free(int kx, int ky, int kz) noexcept {
   c->flags = static_cast<std::uint8_t>(c->flags & ~kHit);
   c->hit_run = 0;
   if (c->free_run < 255) ++c->free_run;
-  if (c->free_run >= config_.burn_in_frames) c->flags = static_cast<std::uint8_t>(c->flags | kEver);
+  // A cell the view's side cuts may hold something just beyond the border: its run counts once
+  // the whole cell has been seen free.
+  if ((c->flags & kWhole) == 0 && (view_planes_ == 0 || inside_view(kx, ky, kz))) {
+    c->flags = static_cast<std::uint8_t>(c->flags | kWhole);
+  }
+  if (c->free_run >= config_.burn_in_frames && (c->flags & kWhole) != 0) {
+    c->flags = static_cast<std::uint8_t>(c->flags | kEver);
+  }
 }
 
 void EverFreeGrid::walk_free(const Eigen::Vector3f& from, const Eigen::Vector3f& to) noexcept {
@@ -136,6 +159,27 @@ void EverFreeGrid::walk_free(const Eigen::Vector3f& from, const Eigen::Vector3f&
   }
 }
 
+void EverFreeGrid::set_view_planes(const DepthView& depth, const CameraIntrinsics& cam,
+                                   const Eigen::Matrix3f& R, const Eigen::Vector3f& t) noexcept {
+  // The image's outer pixel edges, as rays x/z = a (columns) and y/z = b (rows) in the camera
+  // frame; each side plane holds the camera and one of them, its normal pointing into the view.
+  const float left = (-0.5f - cam.cx) / cam.fx;
+  const float right = (static_cast<float>(depth.width) - 0.5f - cam.cx) / cam.fx;
+  const float top = (-0.5f - cam.cy) / cam.fy;
+  const float bottom = (static_cast<float>(depth.height) - 0.5f - cam.cy) / cam.fy;
+  const Eigen::Vector3f normals[4] = {
+      Eigen::Vector3f(1.f, 0.f, -left), Eigen::Vector3f(-1.f, 0.f, right),
+      Eigen::Vector3f(0.f, 1.f, -top), Eigen::Vector3f(0.f, -1.f, bottom)};
+  view_planes_ = std::min(config_.whole_in_view, 4);
+  view_origin_ = t;
+  const float half = 0.5f * config_.resolution;
+  for (int i = 0; i < view_planes_; ++i) {
+    const Eigen::Vector3f n = R * normals[i].normalized();
+    view_normals_[static_cast<std::size_t>(i)] = n;
+    view_reach_[static_cast<std::size_t>(i)] = half * n.cwiseAbs().sum();
+  }
+}
+
 Status EverFreeGrid::integrate(const DepthView& depth, const CameraIntrinsics& cam,
                                const Pose& T_map_camera) noexcept {
   if (depth.data == nullptr) return Status::kNullData;
@@ -147,6 +191,7 @@ Status EverFreeGrid::integrate(const DepthView& depth, const CameraIntrinsics& c
   const int s = config_.pixel_step;
   const Eigen::Matrix3f R = T_map_camera.rotation.toRotationMatrix();
   const Eigen::Vector3f& t = T_map_camera.translation;
+  set_view_planes(depth, cam, R, t);
   // Two passes over the same rays: every hit of the frame first, so a cell some ray ends in is
   // not also counted free by a ray passing it in the same frame.
   for (int pass = 0; pass < 2; ++pass) {

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <initializer_list>
 #include <memory>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "alloc_guard.hpp"
 #include "dynamap/map/ever_free_grid.hpp"
 #include "dynamap/track/tracker.hpp"
+#include "world_scene.hpp"
 
 namespace dynamap {
 namespace {
@@ -147,12 +149,61 @@ TEST(EverFreeGrid, BadInputChangesNothingAndBadConfigIsRefused) {
                                    [](EverFreeConfig& c) { c.layers = kEverFreeMaxLayers + 1; },
                                    [](EverFreeConfig& c) { c.pixel_step = 0; },
                                    [](EverFreeConfig& c) { c.burn_in_frames = 256; },
-                                   [](EverFreeConfig& c) { c.max_range = std::nanf(""); }}) {
+                                   [](EverFreeConfig& c) { c.max_range = std::nanf(""); },
+                                   [](EverFreeConfig& c) { c.whole_in_view = 5; }}) {
     EverFreeConfig c;
     bad(c);
     EverFreeGrid g;
     EXPECT_EQ(g.init(c, 0.f), Status::kInvalidArgument);
   }
+}
+
+// A standing person just beyond the right image border while the camera looks ahead, then the
+// view turning onto it, as a hovering camera's yaw sweep does: the rays beside it see the
+// in-view part of its cells empty. Only a cell wholly inside the view's sides counts as seen
+// free, so the person's first hits are no ever-free evidence; marking the cut cells too
+// labelled such a person dynamic for 41 frames (fresh suite seed 136).
+float share_while_turning_onto_a_person(int whole_in_view) {
+  EverFreeConfig c;
+  c.whole_in_view = whole_in_view;
+  auto grid = make_grid(c);
+  const CameraIntrinsics cam;
+  const float half_fov =
+      std::atan((static_cast<float>(cam.width) - 0.5f - cam.cx) / cam.fx);  // right border
+  // The person's corner nearest the view's right border 0.03 rad beyond it.
+  const float x = 2.5f;
+  const float y = -std::tan(half_fov + 0.03f) * (x + 0.25f) - 0.25f;
+  test::WorldScene world;
+  world.boxes = {Box3{Eigen::Vector3f(5.f, -6.f, 0.f), Eigen::Vector3f(5.2f, 6.f, 3.f)},
+                 test::person_at(x, y)};
+  std::vector<std::uint16_t> pixels;
+  const Eigen::Vector3f position(0.f, 0.f, 1.2f);
+  float share = 0.f;
+  for (int i = 0; i < 30; ++i) {  // looking ahead: three times the burn-in
+    const Pose pose = test::level_camera(position, 0.f);
+    EXPECT_EQ(grid->integrate(test::render(world, cam, pose, pixels), cam, pose), Status::kOk);
+    share = std::max(share, grid->ever_free_share(world.boxes[1]));
+  }
+  EXPECT_EQ(share, 0.f);           // out of view
+  for (int i = 1; i <= 15; ++i) {  // turning right 0.6 degrees a frame, 0.15 rad in all
+    const Pose pose = test::level_camera(position, -0.01f * static_cast<float>(i));
+    EXPECT_EQ(grid->integrate(test::render(world, cam, pose, pixels), cam, pose), Status::kOk);
+    share = std::max(share, grid->ever_free_share(world.boxes[1]));
+  }
+  return share;
+}
+
+TEST(EverFreeGrid, AnObjectTheViewTurnsOntoIsNotEverFree) {
+  const float evidence = TrackerConfig{}.ever_free_share;
+  const float sides = share_while_turning_onto_a_person(2);
+  const float all_four = share_while_turning_onto_a_person(4);
+  const float cut_cells_too = share_while_turning_onto_a_person(0);
+  EXPECT_LT(sides, evidence);
+  EXPECT_LT(all_four, evidence);
+  EXPECT_GE(cut_cells_too, evidence);  // marking the cells the border cuts: ever free
+  std::printf("ever-free share of the person: sides %.2f, all four %.2f, cut cells too %.2f\n",
+              static_cast<double>(sides), static_cast<double>(all_four),
+              static_cast<double>(cut_cells_too));
 }
 
 // The tracker side: a walker stepping into space the camera has seen free is dynamic within 5

@@ -38,6 +38,11 @@ struct EverFreeConfig {
   float margin_per_range2 = 0.01f;
   int burn_in_frames = 10;  ///< observed-free frames in a row to become ever free (<= 255)
   int forget_frames = 90;   ///< hit frames in a row to stop being ever free (<= 255)
+  /// A cell's free run makes it ever free only once the cell has been seen free lying wholly
+  /// inside these sides of the view: 0 none, 2 the left and right image borders, 4 all four.
+  /// A cell the border cuts may hold something just beyond it, which the view turns onto.
+  /// Off by default: it delays walkers entering through the side (docs/tracker.md).
+  int whole_in_view = 0;
 
   Status validate() const noexcept;
 };
@@ -69,7 +74,7 @@ class EverFreeGrid {
     std::uint8_t frame = 0;     // low byte of the frame counter at the last touch
     std::uint8_t free_run = 0;  // observed-free frames in a row
     std::uint8_t hit_run = 0;   // hit frames in a row
-    std::uint8_t flags = 0;     // kEver, kHit (hit in `frame`)
+    std::uint8_t flags = 0;     // kEver, kHit (hit in `frame`), kWhole
   };
   struct ColumnTag {
     std::int32_t x = 0, y = 0;
@@ -77,6 +82,7 @@ class EverFreeGrid {
   };
   static constexpr std::uint8_t kEver = 1;
   static constexpr std::uint8_t kHit = 2;
+  static constexpr std::uint8_t kWhole = 4;  // seen free wholly inside the view in this free run
 
   Cell* cell(int kx, int ky, int kz, bool claim) noexcept;
   const Cell* cell(int kx, int ky, int kz) const noexcept;
@@ -85,6 +91,17 @@ class EverFreeGrid {
   void block_neighbours(int kx, int ky, int kz) noexcept;
   void walk_free(const Eigen::Vector3f& from, const Eigen::Vector3f& to) noexcept;
   void mark_free(int kx, int ky, int kz) noexcept;
+  void set_view_planes(const DepthView& depth, const CameraIntrinsics& cam,
+                       const Eigen::Matrix3f& R, const Eigen::Vector3f& t) noexcept;
+  /// Whether cell (kx, ky, kz) lies wholly inside the view planes set for this frame.
+  bool inside_view(int kx, int ky, int kz) const noexcept;
+
+  /// This frame's view side planes (map frame, through the camera, normals pointing in) and
+  /// each normal's half-extent over a cell, |n|_1 * resolution / 2.
+  std::array<Eigen::Vector3f, 4> view_normals_{};
+  std::array<float, 4> view_reach_{};
+  int view_planes_ = 0;
+  Eigen::Vector3f view_origin_ = Eigen::Vector3f::Zero();
 
   EverFreeConfig config_{};
   float z0_ = 0.2f;  // map-frame bottom of layer 0
