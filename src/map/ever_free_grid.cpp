@@ -20,7 +20,9 @@ constexpr float kMaxCoordinate = 1.0e5f;
 }  // namespace
 
 Status EverFreeConfig::validate() const noexcept {
-  return all_in_range(*this, params::kEverFree) ? Status::kOk : Status::kInvalidArgument;
+  // whole_in_view names pairs of sides: one side or three would be a lopsided view.
+  const bool sides = whole_in_view == 0 || whole_in_view == 2 || whole_in_view == 4;
+  return sides && all_in_range(*this, params::kEverFree) ? Status::kOk : Status::kInvalidArgument;
 }
 
 Status EverFreeGrid::init(const EverFreeConfig& config, float ground_height) noexcept {
@@ -170,7 +172,7 @@ void EverFreeGrid::set_view_planes(const DepthView& depth, const CameraIntrinsic
   const Eigen::Vector3f normals[4] = {
       Eigen::Vector3f(1.f, 0.f, -left), Eigen::Vector3f(-1.f, 0.f, right),
       Eigen::Vector3f(0.f, 1.f, -top), Eigen::Vector3f(0.f, -1.f, bottom)};
-  view_planes_ = std::min(config_.whole_in_view, 4);
+  view_planes_ = config_.whole_in_view;  // 0, 2 or 4 (validate())
   view_origin_ = t;
   const float half = 0.5f * config_.resolution;
   for (int i = 0; i < view_planes_; ++i) {

@@ -150,7 +150,9 @@ TEST(EverFreeGrid, BadInputChangesNothingAndBadConfigIsRefused) {
                                    [](EverFreeConfig& c) { c.pixel_step = 0; },
                                    [](EverFreeConfig& c) { c.burn_in_frames = 256; },
                                    [](EverFreeConfig& c) { c.max_range = std::nanf(""); },
-                                   [](EverFreeConfig& c) { c.whole_in_view = 5; }}) {
+                                   [](EverFreeConfig& c) { c.whole_in_view = 5; },
+                                   [](EverFreeConfig& c) { c.whole_in_view = 1; },
+                                   [](EverFreeConfig& c) { c.whole_in_view = 3; }}) {
     EverFreeConfig c;
     bad(c);
     EverFreeGrid g;

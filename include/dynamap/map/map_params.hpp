@@ -106,7 +106,7 @@ inline constexpr Param<EverFreeConfig> kEverFree[] = {
     {DYNAMAP_PARAM(EverFreeConfig, margin_per_range2), X, "1/m", 0, kInf, kClosed, kOpen, "plus this times range^2"},
     {DYNAMAP_PARAM(EverFreeConfig, burn_in_frames), X, "frames", 1, 255, kClosed, kClosed, "observed-free frames in a row to become ever free"},
     {DYNAMAP_PARAM(EverFreeConfig, forget_frames), X, "frames", 1, 255, kClosed, kClosed, "hit frames in a row to stop being ever free"},
-    {DYNAMAP_PARAM(EverFreeConfig, whole_in_view), X, "", 0, 4, kClosed, kClosed, "a cell's free run makes it ever free only once the whole cell was seen free inside these sides of the view: 0 off, 2 left and right, 4 all four (a cell the image border cuts may hold something just beyond it)"},
+    {DYNAMAP_PARAM(EverFreeConfig, whole_in_view), X, "", 0, 4, kClosed, kClosed, "a cell's free run makes it ever free only once the whole cell was seen free inside these sides of the view: 0 off, 2 left and right, 4 all four; 1 and 3 are refused (a cell the image border cuts may hold something just beyond it)"},
     // clang-format on
 };
 static_assert(paths_unique(kEverFree));
